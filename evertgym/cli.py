@@ -1,0 +1,179 @@
+"""The ``evertgym`` command line.  Units at this edge: mm and kPa, named in the flags.
+
+    evertgym reproduce stiffness [--json] [--plot docs/stiffness_fig3.png]
+    evertgym stiffness [--length-mm L] [--bands-from-tip-mm 50,100 --reduction 0.3]
+                       [--pressure-kpa 6.9] [--displacement-mm D] [--design FILE] [--json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+
+import numpy as np
+
+
+class CLIError(ValueError):
+    """A bad flag value; the message names the flag and its allowed range."""
+
+
+def _float_list(flag: str, text: str) -> list[float]:
+    if not text:
+        return []
+    try:
+        vals = [float(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise CLIError(f"{flag} = {text!r}: expected comma-separated numbers in mm, e.g. 50,100") from None
+    for v in vals:
+        if not math.isfinite(v) or v <= 0:
+            raise CLIError(f"{flag} = {text!r}: every distance must be in (0, inf) mm")
+    return vals
+
+
+def _check(flag: str, value: float, lo: float, hi: float, unit: str) -> float:
+    if not (math.isfinite(value) and lo <= value <= hi):
+        raise CLIError(f"{flag} = {value!r} is out of range: allowed [{lo:g}, {hi:g}] {unit}")
+    return value
+
+
+# ---- reproduce stiffness ---------------------------------------------------------------
+def _stiffness_curves(result: dict, n_points: int = 11) -> list[dict]:
+    from evertgym.model.stiffness import force_displacement_curve, paper_prototype
+
+    disp_mm = np.linspace(0.0, 20.0, n_points)
+    curves = []
+    for r in result["rows"]:
+        design = paper_prototype(r["bands_from_tip_mm"], r["reduction"])
+        f = force_displacement_curve(design, disp_mm / 1e3)
+        label = (
+            "no bands"
+            if not r["bands_from_tip_mm"]
+            else f"{int(r['reduction'] * 100)}% @ {','.join(str(int(d)) for d in r['bands_from_tip_mm'])} mm"
+        )
+        curves.append(
+            {
+                "experiment": r["experiment"],
+                "label": label,
+                "displacement_mm": disp_mm,
+                "cosserat_force_n": f,
+                "measured_n_per_m": r["measured_n_per_m"],
+                "sd_n_per_m": r["sd_n_per_m"],
+            }
+        )
+    return curves
+
+
+def cmd_reproduce_stiffness(args: argparse.Namespace) -> int:
+    from evertgym.model.stiffness import reproduce_stiffness
+
+    t0 = time.perf_counter()
+    result = reproduce_stiffness()
+    if args.plot:
+        from evertgym.plots import plot_stiffness_curves
+
+        plot_stiffness_curves(_stiffness_curves(result), args.plot)
+    if args.json:
+        print(json.dumps(result))
+        return 0
+    print("Virtual tensile test: 6.9 kPa, 20 mm lateral tip displacement, k = F / 0.02 m")
+    print(f"parameter file version: {result['params_version']}")
+    print(f"{'exp':>3} {'role':>9} {'bands from tip (mm)':>20} {'red.':>5} {'measured':>9} {'sd':>5} {'cosserat':>9} {'error':>7}")
+    for r in result["rows"]:
+        bands = ",".join(f"{d:g}" for d in r["bands_from_tip_mm"]) or "-"
+        print(
+            f"{r['experiment']:>3} {r['role']:>9} {bands:>20} {r['reduction']:>5.2f} {r['measured_n_per_m']:>9.2f} "
+            f"{r['sd_n_per_m']:>5.2f} {r['cosserat_n_per_m']:>9.2f} {100 * r['cosserat_rel_error']:>+6.1f}%"
+        )
+    rms = result["rms"]
+    print(f"RMS relative error, calibrate rows (Exp 1, 3): {100 * rms['calibrate']:.1f}%")
+    print(f"RMS relative error, predict rows (Exp 2):      {100 * rms['predict']:.1f}%")
+    print(f"  of which configurations never seen in calibration: {100 * rms['predict_unseen_configurations']:.1f}%")
+    if args.plot:
+        print(f"plot: {args.plot}")
+    print(f"time: {time.perf_counter() - t0:.1f} s")
+    return 0
+
+
+# ---- stiffness ---------------------------------------------------------------------------
+def cmd_stiffness(args: argparse.Namespace) -> int:
+    from evertgym.design import TubeDesign
+    from evertgym.model.params import load_params
+    from evertgym.model.stiffness import tensile_rod
+
+    params = load_params()
+    pressure_pa = _check("--pressure-kpa", args.pressure_kpa, 0.0, 8.0, "kPa") * 1e3
+    disp = _check("--displacement-mm", args.displacement_mm, -60.0, 60.0, "mm") / 1e3
+    if args.design:
+        design = TubeDesign.load(args.design)
+        if args.bands_from_tip_mm:
+            raise CLIError("--bands-from-tip-mm cannot be combined with --design (the file holds the bands)")
+    else:
+        length_total = 600.0
+        design = TubeDesign(_check("--diameter-mm", args.diameter_mm, 1.0, 500.0, "mm") / 1e3, 0.05e-3, length_total / 1e3)
+        bands = _float_list("--bands-from-tip-mm", args.bands_from_tip_mm)
+        if bands:
+            red = _check("--reduction", args.reduction, 0.0, 0.5999, "(fraction of the diameter, below 0.6)")
+            design = design.with_bands_from_tip([b / 1e3 for b in bands], red)
+    free_mm = params.free_length_m * 1e3 if args.length_mm is None else args.length_mm
+    _check("--length-mm", free_mm, 1.0, design.length_m * 1e3, "mm (free length, clamp to tip)")
+    rod = tensile_rod(design, pressure_pa, free_mm / 1e3, params)
+    sol = rod.solve_lateral_displacement(disp)
+    out = {
+        "cosserat_force_n": sol.force[1],
+        "cosserat_n_per_m": sol.force[1] / disp if disp else float("nan"),
+        "tip_x_mm": sol.tip_x * 1e3,
+        "tip_y_mm": sol.tip_y * 1e3,
+        "tip_angle_deg": math.degrees(sol.tip_angle),
+        "max_moment_fraction_of_collapse": sol.max_moment_fraction,
+        "wrinkled": sol.wrinkled,
+        "kinked": sol.kinked,
+        "length_mm": free_mm,
+        "pressure_kpa": pressure_pa / 1e3,
+        "displacement_mm": disp * 1e3,
+    }
+    if args.json:
+        print(json.dumps(out))
+        return 0
+    for k, v in out.items():
+        print(f"{k:34s} {v:.5g}" if isinstance(v, float) else f"{k:34s} {v}")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="evertgym", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = p.add_subparsers(dest="command", required=True)
+
+    rep = sub.add_parser("reproduce", help="reproduce a figure or table of the paper")
+    rep_sub = rep.add_subparsers(dest="target", required=True)
+    rs = rep_sub.add_parser("stiffness", help="Exp 1-3: stiffness index per row, model against measured")
+    rs.add_argument("--json", action="store_true", help="print one JSON object")
+    rs.add_argument("--plot", default=None, help="write a force-displacement plot (PNG) here")
+    rs.set_defaults(func=cmd_reproduce_stiffness)
+
+    st = sub.add_parser("stiffness", help="virtual tensile test of any design")
+    st.add_argument("--length-mm", type=float, default=None, help="free length, clamp to tip (default: calibrated, about 200)")
+    st.add_argument("--bands-from-tip-mm", default="", help="band centres from the tip, e.g. 50,100")
+    st.add_argument("--reduction", type=float, default=0.5, help="band diameter reduction in [0, 0.6)")
+    st.add_argument("--pressure-kpa", type=float, default=6.9)
+    st.add_argument("--displacement-mm", type=float, default=20.0, help="lateral tip displacement, |D| <= 60")
+    st.add_argument("--diameter-mm", type=float, default=40.0)
+    st.add_argument("--design", default=None, help="design file (TOML or JSON) instead of the band flags")
+    st.add_argument("--json", action="store_true")
+    st.set_defaults(func=cmd_stiffness)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except (CLIError, ValueError) as e:
+        print(f"evertgym: error: {e}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())
