@@ -1,6 +1,7 @@
 """The ``evertgym`` command line.  Units at this edge: mm and kPa, named in the flags.
 
-    evertgym reproduce stiffness [--json] [--plot docs/stiffness_fig3.png]
+    evertgym reproduce stiffness [--json] [--plot docs/stiffness_fig3.png] [--no-sim]
+    evertgym reproduce eversion [--json] [--step-kpa 0.01]
     evertgym stiffness [--length-mm L] [--bands-from-tip-mm 50,100 --reduction 0.3]
                        [--pressure-kpa 6.9] [--displacement-mm D] [--design FILE] [--json]
 """
@@ -71,6 +72,10 @@ def cmd_reproduce_stiffness(args: argparse.Namespace) -> int:
 
     t0 = time.perf_counter()
     result = reproduce_stiffness()
+    if not args.no_sim:
+        from evertgym.sim.tensile import add_sim_columns
+
+        add_sim_columns(result)
     if args.plot:
         from evertgym.plots import plot_stiffness_curves
 
@@ -80,19 +85,47 @@ def cmd_reproduce_stiffness(args: argparse.Namespace) -> int:
         return 0
     print("Virtual tensile test: 6.9 kPa, 20 mm lateral tip displacement, k = F / 0.02 m")
     print(f"parameter file version: {result['params_version']}")
-    print(f"{'exp':>3} {'role':>9} {'bands from tip (mm)':>20} {'red.':>5} {'measured':>9} {'sd':>5} {'cosserat':>9} {'error':>7}")
+    sim = "sim_n_per_m" in result["rows"][0]
+    head = f"{'exp':>3} {'role':>9} {'bands from tip (mm)':>20} {'red.':>5} {'measured':>9} {'sd':>5} {'cosserat':>9} {'error':>7}"
+    print(head + (f" {'sim':>7} {'sim vs rod':>10}" if sim else ""))
     for r in result["rows"]:
         bands = ",".join(f"{d:g}" for d in r["bands_from_tip_mm"]) or "-"
-        print(
+        line = (
             f"{r['experiment']:>3} {r['role']:>9} {bands:>20} {r['reduction']:>5.2f} {r['measured_n_per_m']:>9.2f} "
             f"{r['sd_n_per_m']:>5.2f} {r['cosserat_n_per_m']:>9.2f} {100 * r['cosserat_rel_error']:>+6.1f}%"
         )
+        if sim:
+            line += f" {r['sim_n_per_m']:>7.2f} {100 * r['sim_rel_error_vs_cosserat']:>+9.2f}%"
+        print(line)
     rms = result["rms"]
     print(f"RMS relative error, calibrate rows (Exp 1, 3): {100 * rms['calibrate']:.1f}%")
     print(f"RMS relative error, predict rows (Exp 2):      {100 * rms['predict']:.1f}%")
     print(f"  of which configurations never seen in calibration: {100 * rms['predict_unseen_configurations']:.1f}%")
     if args.plot:
         print(f"plot: {args.plot}")
+    print(f"time: {time.perf_counter() - t0:.1f} s")
+    return 0
+
+
+def cmd_reproduce_eversion(args: argparse.Namespace) -> int:
+    from evertgym.sim.eversion_test import reproduce_eversion
+
+    step = _check("--step-kpa", args.step_kpa, 0.001, 1.0, "kPa")
+    t0 = time.perf_counter()
+    result = reproduce_eversion(step_pa=step * 1e3)
+    if args.json:
+        print(json.dumps(result))
+        return 0
+    print("Minimum eversion pressure (vertical, against gravity, full eversion within 20 s, <= 8 kPa)")
+    print(f"{'reduction':>9} {'measured_kpa':>12} {'sd_kpa':>7} {'simulated_kpa':>13} {'within 1 SD':>11}")
+    for r in result["rows"]:
+        meas = "-" if r["measured_kpa"] is None else f"{r['measured_kpa']:.2f}"
+        sd = "-" if r["sd_kpa"] is None else f"{r['sd_kpa']:.2f}"
+        sim = "never" if r["simulated_kpa"] is None else f"{r['simulated_kpa']:.2f}"
+        ok = "-"
+        if r["measured_kpa"] is not None and r["simulated_kpa"] is not None:
+            ok = "yes" if abs(r["simulated_kpa"] - r["measured_kpa"]) <= r["sd_kpa"] else "no"
+        print(f"{r['reduction']:>9.2f} {meas:>12} {sd:>7} {sim:>13} {ok:>11}")
     print(f"time: {time.perf_counter() - t0:.1f} s")
     return 0
 
@@ -121,7 +154,7 @@ def cmd_stiffness(args: argparse.Namespace) -> int:
     _check("--length-mm", free_mm, 1.0, design.length_m * 1e3, "mm (free length, clamp to tip)")
     rod = tensile_rod(design, pressure_pa, free_mm / 1e3, params)
     sol = rod.solve_lateral_displacement(disp)
-    out = {
+    out: dict = {
         "cosserat_force_n": sol.force[1],
         "cosserat_n_per_m": sol.force[1] / disp if disp else float("nan"),
         "tip_x_mm": sol.tip_x * 1e3,
@@ -134,6 +167,11 @@ def cmd_stiffness(args: argparse.Namespace) -> int:
         "pressure_kpa": pressure_pa / 1e3,
         "displacement_mm": disp * 1e3,
     }
+    if not args.no_sim and disp != 0:
+        from evertgym.sim.tensile import sim_tensile_test
+
+        res = sim_tensile_test(design, disp, pressure_pa, free_mm / 1e3, params=params)
+        out.update(sim_force_n=res.force_n, sim_n_per_m=res.n_per_m, sim_converged=res.converged)
     if args.json:
         print(json.dumps(out))
         return 0
@@ -151,7 +189,13 @@ def build_parser() -> argparse.ArgumentParser:
     rs = rep_sub.add_parser("stiffness", help="Exp 1-3: stiffness index per row, model against measured")
     rs.add_argument("--json", action="store_true", help="print one JSON object")
     rs.add_argument("--plot", default=None, help="write a force-displacement plot (PNG) here")
+    rs.add_argument("--no-sim", action="store_true", help="skip the pymunk simulator's columns")
     rs.set_defaults(func=cmd_reproduce_stiffness)
+
+    rv = rep_sub.add_parser("eversion", help="Exp 4: minimum eversion pressure per band reduction, simulated")
+    rv.add_argument("--json", action="store_true", help="print one JSON object")
+    rv.add_argument("--step-kpa", type=float, default=0.01, help="pressure step of the protocol (kPa)")
+    rv.set_defaults(func=cmd_reproduce_eversion)
 
     st = sub.add_parser("stiffness", help="virtual tensile test of any design")
     st.add_argument("--length-mm", type=float, default=None, help="free length, clamp to tip (default: calibrated, about 200)")
@@ -162,6 +206,7 @@ def build_parser() -> argparse.ArgumentParser:
     st.add_argument("--diameter-mm", type=float, default=40.0)
     st.add_argument("--design", default=None, help="design file (TOML or JSON) instead of the band flags")
     st.add_argument("--json", action="store_true")
+    st.add_argument("--no-sim", action="store_true", help="skip the pymunk simulator's figure")
     st.set_defaults(func=cmd_stiffness)
     return p
 

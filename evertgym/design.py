@@ -79,17 +79,20 @@ class Band:
     Attributes
     ----------
     position_m: centre of the band strip along the body, from the base (m).
-    reduction: diameter reduction ``rho``, in [0, 0.6).
+    reduction: diameter reduction ``rho``, in [0, 0.6) (in [0, 0.95) with ``must_evert=False``).
     width_m: width of the band strip (m); the paper's strips are 15 mm.
     """
 
     position_m: float
     reduction: float
     width_m: float = 0.015
+    #: False admits reductions up to 0.95 for studies of bands that cannot evert (the
+    #: paper's 60% band); designs meant to evert keep the default.
+    must_evert: bool = field(default=True, compare=False)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "position_m", _finite("position_m", self.position_m))
-        _in_range("reduction", self.reduction, 0.0, MAX_REDUCTION, lo_open=False, hi_open=True)
+        _in_range("reduction", self.reduction, 0.0, MAX_REDUCTION if self.must_evert else 0.95, lo_open=False, hi_open=True)
         _in_range("width_m", self.width_m, 0.0, 0.2, lo_open=True, hi_open=False, unit="m")
 
 

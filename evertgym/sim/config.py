@@ -1,0 +1,90 @@
+"""Fidelity and physics settings of the simulator (SI), validated at construction."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+from evertgym.model.eversion import GROWTH_GAIN_M_PER_S_PER_PA, MAX_GROWTH_SPEED_M_PER_S
+
+
+def _check(name: str, value: float, lo: float, hi: float, *, lo_open: bool = False) -> None:
+    ok = isinstance(value, (int, float)) and math.isfinite(value) and (value > lo if lo_open else value >= lo) and value <= hi
+    if not ok:
+        lb = "(" if lo_open else "["
+        raise ValueError(f"{name} = {value!r} is out of range: allowed {lb}{lo:g}, {hi:g}]")
+
+
+@dataclass(frozen=True)
+class SimConfig:
+    """Simulator settings.
+
+    Fidelity (the quasi-static regime)
+        ``segment_length_m``: rigid segment length ds.  ``dt_s``: pymunk step.
+        ``damping``: ``space.damping`` (velocity fraction kept after 1 s); spring
+        stiffnesses are divided by ``damping ** dt`` so that the damping, which
+        Chipmunk applies to the spring impulses too, does not bias the equilibrium.
+        ``inertia_factor``: segment rotational inertia ``I = f k dt^2`` for the stiffest
+        adjacent joint ``k`` (f = 4 puts its local mode at 1 rad per step);
+        ``mass_ratio``: translational mass as a fraction of a uniform bar's ``12 I /
+        ds^2`` (small: the chain then relaxes in O(N) rather than O(N^2) steps).  Masses
+        are scaled, not physical: only static answers are meaningful, and tests check
+        they do not depend on these settings.  ``iterations``: constraint solver passes.
+        ``law_interval``: steps between updates of the non-linear joint law.
+    Active set
+        Segments more than ``active_length_m`` behind the tip that have moved less than
+        ``freeze_speed_m_per_s`` for ``freeze_time_s`` become static (leave the active set).
+    Physics
+        ``wall_friction``: Coulomb coefficient robot-wall.  ``regulator_tau_s``: pressure
+        lag.  ``growth_gain_m_per_s_per_pa``, ``bend_loss_per_rad``, ``max_growth_speed_m_per_s``:
+        the growth law (:mod:`evertgym.sim.growth`).
+    Events
+        ``stall_time_s``: a stall is no growth faster than ``stall_speed_m_per_s`` for this long.
+    """
+
+    segment_length_m: float = 0.005
+    dt_s: float = 0.001
+    damping: float = 1e-12
+    inertia_factor: float = 4.0
+    mass_ratio: float = 0.01
+    iterations: int = 10
+    law_interval: int = 5
+    active_length_m: float = 0.25
+    freeze_speed_m_per_s: float = 2e-3
+    freeze_time_s: float = 0.5
+    wall_friction: float = 0.3
+    regulator_tau_s: float = 0.15
+    growth_gain_m_per_s_per_pa: float = GROWTH_GAIN_M_PER_S_PER_PA
+    bend_loss_per_rad: float = 0.08
+    max_growth_speed_m_per_s: float = MAX_GROWTH_SPEED_M_PER_S
+    stall_time_s: float = 1.0
+    stall_speed_m_per_s: float = 1e-3
+    initial_length_m: float = 0.015
+
+    def __post_init__(self) -> None:
+        _check("segment_length_m", self.segment_length_m, 0.0005, 0.05, lo_open=False)
+        _check("dt_s", self.dt_s, 0.0, 0.01, lo_open=True)
+        _check("damping", self.damping, 0.0, 1.0, lo_open=True)
+        _check("inertia_factor", self.inertia_factor, 1.0, 1e6)
+        _check("mass_ratio", self.mass_ratio, 0.0, 1.0, lo_open=True)
+        _check("iterations", self.iterations, 1, 1000)
+        _check("law_interval", self.law_interval, 1, 1000)
+        _check("active_length_m", self.active_length_m, 0.0, 100.0, lo_open=True)
+        _check("freeze_speed_m_per_s", self.freeze_speed_m_per_s, 0.0, 10.0)
+        _check("freeze_time_s", self.freeze_time_s, 0.0, 1e6)
+        _check("wall_friction", self.wall_friction, 0.0, 5.0)
+        _check("regulator_tau_s", self.regulator_tau_s, 0.0, 100.0)
+        _check("growth_gain_m_per_s_per_pa", self.growth_gain_m_per_s_per_pa, 0.0, 1.0)
+        _check("bend_loss_per_rad", self.bend_loss_per_rad, 0.0, 10.0)
+        _check("max_growth_speed_m_per_s", self.max_growth_speed_m_per_s, 0.0, 10.0, lo_open=True)
+        _check("stall_time_s", self.stall_time_s, 0.0, 1e6, lo_open=True)
+        _check("stall_speed_m_per_s", self.stall_speed_m_per_s, 0.0, 10.0)
+        _check("initial_length_m", self.initial_length_m, self.segment_length_m, 100.0)
+        if self.max_growth_speed_m_per_s * self.dt_s > 0.2 * self.segment_length_m:
+            raise ValueError(
+                f"max_growth_speed_m_per_s * dt_s = {self.max_growth_speed_m_per_s * self.dt_s:g} m per step is out of "
+                f"range: allowed <= 0.2 x segment_length_m ({0.2 * self.segment_length_m:g} m); lower dt_s"
+            )
+
+    def to_dict(self) -> dict:
+        return asdict(self)

@@ -1,0 +1,121 @@
+"""From the continuous rod to a chain of rigid segments and rotary joints.
+
+Mapping EI(s) to joint stiffness
+--------------------------------
+Nodes sit at ``s_j = s_0 + j ds``; joint ``j`` joins the segments either side of node
+``j`` (joint 0 is the clamp).  A joint's rotation stands for the curvature of the rod
+around its node, weighted by the linear "hat" function ``h_j(s)`` of that node (1 at
+``s_j``, 0 at the neighbouring nodes).  Its compliance is
+
+    c_j = integral h_j(s) / EI(s) ds,      k_j = 1 / c_j.
+
+For a bending moment that varies linearly between nodes (any point load) the chain's
+tip rotation and deflection are then the rod's, up to the linear-interpolation error of
+``(L - s)^2`` (O(ds^2)), wherever a band falls between nodes: the compliance of a band
+is shared between its two nearest joints in proportion to its distance from each.  A
+per-cell harmonic mean (``EI / ds`` with EI averaged over the cell) is only O(ds) when a
+band straddles a cell edge.  At the clamp the hat is cut in half, so a uniform rod
+gets ``k_0 = 2 EI / ds`` there (the clamp rule of DESIGN.md).  The hat of the last node
+reaches past the tip only where the moment is zero.
+
+Wrinkling and kinking per joint
+-------------------------------
+A joint is linear up to the wrinkling moment of the narrowest section in its cell
+(``M_w = p pi r_min^3 / 2``) and follows the tension-field law beyond it, up to a kink
+near ``M_c = 2 M_w`` (:mod:`evertgym.model.pressure`).  Its rotation at wrinkling onset
+is ``phi_w = M_w c_j``; past it ``M = M_c f(phi / phi_w)`` with the universal law ``f``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from evertgym.model.pressure import KINK_MOMENT_FRACTION, wrinkled_moment_fraction
+from evertgym.model.section import TubeSection
+
+#: Quadrature points per segment for the hat integrals.
+_QUAD_PER_SEGMENT = 64
+
+
+@dataclass(frozen=True)
+class JointLaw:
+    """Per-joint constitutive data (arrays over joints, SI)."""
+
+    stiffness: np.ndarray  # k_j, N m / rad
+    shear_stiffness: np.ndarray  # k_s,j = 1 / int h_j / GA, N / m
+    wrinkling_moment: np.ndarray  # M_w, N m
+    radius: np.ndarray  # narrowest radius of the joint's cell, m
+
+    def moment(self, angle: np.ndarray) -> np.ndarray:
+        """Joint moment (N m) at relative rotation ``angle`` (rad): see :func:`joint_moment`."""
+        return joint_moment(angle, self.stiffness, self.wrinkling_moment)
+
+    def kinked(self, moment: np.ndarray) -> np.ndarray:
+        """Joints whose moment passed the kink fraction of their collapse moment."""
+        return np.abs(moment) >= KINK_MOMENT_FRACTION * 2.0 * self.wrinkling_moment
+
+
+#: A wrinkled or unpressurised joint keeps this fraction of its linear stiffness (the
+#: membrane's own bending stiffness; it also keeps a limp chain well posed).
+RESIDUAL_STIFFNESS_FRACTION = 0.01
+
+
+def joint_moment(angle: np.ndarray, stiffness: np.ndarray, wrinkling_moment: np.ndarray) -> np.ndarray:
+    """Moment (N m) of joints at ``angle`` (rad): ``k phi`` up to the wrinkling moment, the
+    tension-field law beyond it (towards ``M_c = 2 M_w``), never below the residual
+    ``RESIDUAL_STIFFNESS_FRACTION k phi``."""
+    lin = stiffness * angle
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(wrinkling_moment > 0, np.abs(lin) / wrinkling_moment, np.inf)
+    wrinkled = ratio > 1.0
+    if not np.any(wrinkled):
+        return lin
+    finite = np.where(np.isfinite(ratio), np.maximum(ratio, 1.0), 1.0)
+    m_wr = np.sign(angle) * 2.0 * wrinkling_moment * wrinkled_moment_fraction(finite)
+    m_wr = np.where(np.abs(m_wr) > RESIDUAL_STIFFNESS_FRACTION * np.abs(lin), m_wr, RESIDUAL_STIFFNESS_FRACTION * lin)
+    return np.where(wrinkled, m_wr, lin)
+
+
+def hat_compliance(section: TubeSection, nodes: np.ndarray, s_end: float, shear: bool = False) -> np.ndarray:
+    """``c_j = int h_j / EI ds`` for each node (``int h_j / GA ds`` with ``shear``);
+    the last node's hat is cut at ``s_end``."""
+    stiffness = section.shear_stiffness if shear else section.bending_stiffness
+    n = len(nodes)
+    comp = np.zeros(n)
+    for j in range(n):
+        lo = nodes[j - 1] if j > 0 else nodes[0]
+        hi = nodes[j + 1] if j + 1 < n else min(s_end, nodes[j] + (nodes[j] - nodes[j - 1] if j > 0 else 0.0))
+        for a, b in ((lo, nodes[j]), (nodes[j], hi)):
+            if b - a <= 0:
+                continue
+            s = np.linspace(a, b, _QUAD_PER_SEGMENT + 1)
+            h = 1.0 - np.abs(s - nodes[j]) / (b - a)
+            comp[j] += np.trapezoid(h / stiffness(s), s)
+    return comp
+
+
+def joint_law(section: TubeSection, nodes: np.ndarray, s_end: float) -> JointLaw:
+    """Stiffness and wrinkling data of the joints at ``nodes`` (body coordinates, m)."""
+    comp = hat_compliance(section, nodes, s_end)
+    n = len(nodes)
+    r_min = np.empty(n)
+    for j in range(n):
+        half_lo = (nodes[j] - nodes[j - 1]) / 2 if j > 0 else 0.0
+        half_hi = (nodes[j + 1] - nodes[j]) / 2 if j + 1 < n else max(0.0, min(s_end - nodes[j], half_lo))
+        s = np.linspace(nodes[j] - half_lo, nodes[j] + half_hi, 33)
+        r_min[j] = float(np.min(section.radius(s)))
+    mw = 0.5 * section.pressure_pa * math.pi * r_min**3
+    return JointLaw(1.0 / comp, 1.0 / hat_compliance(section, nodes, s_end, shear=True), mw, r_min)
+
+
+def segment_inertia(cfg, k_bend: float, k_shear: float, ds: float) -> tuple[float, float]:
+    """Scaled (inertia, mass) of a segment next to joints of stiffness ``k_bend`` (N m/rad)
+    and ``k_shear`` (N/m): the rotational mode of the stiffest joint turns by about
+    ``1 / sqrt(inertia_factor)`` rad per step, the translational mass is ``mass_ratio`` of
+    a uniform bar's but at least what keeps the shear spring's mode as slow."""
+    inertia = cfg.inertia_factor * k_bend * cfg.dt_s**2
+    mass = max(cfg.mass_ratio * 12.0 * inertia / ds**2, 0.5 * cfg.inertia_factor * k_shear * cfg.dt_s**2)
+    return inertia, mass

@@ -1,0 +1,451 @@
+"""2-D pymunk simulation of an eversion robot growing from its tip.
+
+The tube is a chain of rigid segments (pymunk bodies with ``Segment`` collision shapes
+of the local tube radius, smaller at bands) joined at pivots by rotary springs whose
+stiffness comes from the calibrated ``EI(s)`` of the rod model
+(:mod:`evertgym.sim.discretize`), scaled with pressure as ``E_eff(p)`` is, and made
+non-linear past each joint's wrinkling moment (secant stiffness updated every
+``law_interval`` steps), so bands wrinkle and kink first.
+
+Eversion: the base is pinned at ``base`` pointing along ``direction``; material appears
+at the tip, whose segment lengthens continuously (between one and two segment lengths,
+then splits), so the insertion length is not quantised.  The everted body never slides:
+growth only moves the tip.  Growth follows :mod:`evertgym.sim.growth`.
+
+Quasi-static regime: masses are scaled (see :class:`~evertgym.sim.config.SimConfig`);
+only equilibria are physical.  Segments far behind the tip that are at rest become static
+bodies and leave the active set, so a step costs in proportion to the active length.
+Nothing renders here; use ``evertgym.scenes.render_rgb`` with :meth:`EversionSim.centreline`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import pymunk
+
+from evertgym.design import TubeDesign
+from evertgym.model.params import ModelParams, load_params
+from evertgym.model.pressure import KINK_MOMENT_FRACTION
+from evertgym.model.section import TubeSection
+from evertgym.sim.config import SimConfig
+from evertgym.sim.discretize import hat_compliance, joint_moment, segment_inertia
+from evertgym.sim.links import Link, make_link
+from evertgym.model.eversion import EversionThreshold, tail_weight_pressure
+from evertgym.sim.growth import GrowthLaw, PressureRegulator
+
+ROBOT_COLLISION_TYPE = 1
+_ROBOT_GROUP = 1
+#: Reference pressure at which the joint compliances are tabulated (Pa).
+_P_REF = 6900.0
+
+
+class NumericalInstabilityError(RuntimeError):
+    """The simulation produced non-finite or exploding state; the message names the setting to change."""
+
+
+@dataclass
+class SimEvent:
+    t_s: float
+    kind: str  # "band_at_tip", "contact", "kink", "stall"
+    insertion_mm: float
+    detail: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        return {"t_s": self.t_s, "event": self.kind, "insertion_mm": self.insertion_mm, **self.detail}
+
+
+class EversionSim:
+    """A growing eversion robot in a pymunk space.
+
+    Parameters
+    ----------
+    design: the tube and its bands.
+    scene: anything with ``build(space)`` (an :mod:`evertgym.scenes` scene) or None for
+        open space.  When given and ``base`` is None, the robot starts at
+        ``scene.entry`` along ``scene.entry_direction``.
+    config: fidelity and physics settings.
+    base, direction: the base pin (m) and the initial growth direction.
+    vertical_tail: add the weight of the hauled tail (vertical eversion test).
+    threshold: eversion threshold law (the paper-calibrated one by default).
+    """
+
+    def __init__(
+        self,
+        design: TubeDesign,
+        scene=None,
+        config: SimConfig | None = None,
+        base: tuple[float, float] | None = None,
+        direction: tuple[float, float] | None = None,
+        vertical_tail: bool = False,
+        threshold: EversionThreshold | None = None,
+        params: ModelParams | None = None,
+    ):
+        self.design = design
+        self.cfg = cfg = config or SimConfig()
+        self.params = params or load_params()
+        self.space = space = pymunk.Space()
+        space.iterations = cfg.iterations
+        space.damping = cfg.damping
+        space.collision_slop = 2e-4
+        # resolve 20% of an overlap per step: the tip everts into contact geometrically
+        space.collision_bias = (1.0 - 0.2) ** (1.0 / cfg.dt_s)
+        self.scene = scene
+        self.scene_handles = scene.build(space) if scene is not None else None
+        if base is None:
+            base = tuple(getattr(scene, "entry", (0.0, 0.0)))
+        if direction is None:
+            direction = tuple(getattr(scene, "entry_direction", (1.0, 0.0)))
+        d = np.asarray(direction, dtype=float)
+        self.base = np.asarray(base, dtype=float)
+        self.base_angle = math.atan2(d[1], d[0])
+        self._beta = cfg.damping**cfg.dt_s  # spring impulse kept after Chipmunk's damping
+
+        # material tables over all nodes of the body (joint j at s_j = j ds)
+        ds = cfg.segment_length_m
+        self.ds = ds
+        n_nodes = int(math.floor(design.length_m / ds + 1e-9))
+        self.nodes = np.arange(n_nodes) * ds
+        self._ref_section = TubeSection(design, _P_REF, self.params)
+        self._e_ref = self._ref_section.e_eff_pa
+        self._c_ref = hat_compliance(self._ref_section, self.nodes, design.length_m)
+        self._cs_ref = hat_compliance(self._ref_section, self.nodes, design.length_m, shear=True)
+        r_cell = np.array([float(np.min(self._ref_section.radius(np.linspace(max(s - ds / 2, 0), s + ds / 2, 17)))) for s in self.nodes])
+        self._r3 = r_cell**3
+        self._law = design.pressure_law()
+        seg_s = np.linspace(0, design.length_m, int(design.length_m / (ds / 8)) + 2)
+        self._radius_fine = (seg_s, self._ref_section.radius(seg_s))
+
+        self.threshold = threshold or EversionThreshold.calibrated()
+        self.growth = GrowthLaw(self.threshold, cfg.growth_gain_m_per_s_per_pa, cfg.bend_loss_per_rad, cfg.max_growth_speed_m_per_s)
+        self.regulator = PressureRegulator(cfg.regulator_tau_s)
+        self.vertical_tail = vertical_tail
+
+        # state
+        self.t = 0.0
+        self.steps = 0
+        self.bodies: list[pymunk.Body] = []
+        self.shapes: list[pymunk.Segment] = []
+        self.springs: list[pymunk.DampedRotarySpring] = []
+        self.links: list[Link] = []
+        self.active_start = 0  # first body still dynamic
+        self._rest_since: list[float] = []
+        self._frozen_turning = 0.0
+        self.events: list[SimEvent] = []
+        self._kinked: set[int] = set()
+        self._in_contact = False
+        self._bands_reached: set[int] = set()
+        self._stall_clock = 0.0
+        self._stalled = False
+        self.stall_count = 0
+        self.growth_speed = 0.0
+        self.tip_force = 0.0
+        self.tip_contact = np.zeros(2)
+        self.max_contact_force = 0.0
+        self.peak_pressure = 0.0
+        self._p_applied = -1.0
+        self._k_now = np.zeros(0)
+        self._mw_now = np.zeros(0)
+
+        self._anchor = space.static_body
+        self.length = 0.0
+        self._start_chain(cfg.initial_length_m)
+        self._apply_pressure(0.0)
+
+    # ---- construction ----------------------------------------------------------
+    def _radius_between(self, a: float, b: float) -> float:
+        s, r = self._radius_fine
+        m = (s >= a - 1e-12) & (s <= b + 1e-12)
+        return float(np.min(r[m])) if np.any(m) else float(np.interp(0.5 * (a + b), s, r))
+
+    def _mass_props(self, j: int) -> tuple[float, float]:
+        """Scaled (mass, inertia) for the stiffest state of the adjacent joints (8 kPa)."""
+        nxt = min(j + 1, len(self._c_ref) - 1)
+        top = self._law.effective_modulus(8000.0) / self._e_ref
+        k = top / min(self._c_ref[j], self._c_ref[nxt])
+        ks = top / min(self._cs_ref[j], self._cs_ref[nxt])
+        inertia, mass = segment_inertia(self.cfg, k, ks, self.ds)
+        return mass, inertia
+
+    def _add_segment(self, j: int, length: float, origin: np.ndarray, angle: float) -> None:
+        """Segment ``j`` from node ``j`` (world point ``origin``) at ``angle``, joined to the previous body."""
+        mass, inertia = self._mass_props(j)
+        body = pymunk.Body(mass, inertia)
+        # the centre of gravity first: setting it later moves the body origin.  It stays
+        # fixed while the tip segment lengthens for the same reason.
+        body.center_of_gravity = (self.ds / 2, 0.0)
+        body.position = tuple(origin)
+        body.angle = angle
+        shape = pymunk.Segment(body, (0.0, 0.0), (length, 0.0), self._radius_between(self.nodes[j], self.nodes[j] + length))
+        shape.friction = self.cfg.wall_friction
+        shape.elasticity = 0.0
+        shape.collision_type = ROBOT_COLLISION_TYPE
+        shape.filter = pymunk.ShapeFilter(group=_ROBOT_GROUP)
+        if self.bodies:
+            prev, anchor_prev, normal, rest = self.bodies[-1], (self.shapes[-1].b.x, 0.0), (0.0, 1.0), 0.0
+        else:  # the clamp holds the base position and direction
+            # Chipmunk measures a rotary spring angle as angle(a) - angle(b)
+            prev, anchor_prev, rest = self._anchor, tuple(self.base), -self.base_angle
+            normal = (-math.sin(self.base_angle), math.cos(self.base_angle))
+        scale = self._law.effective_modulus(max(self._p_applied, 0.0)) / self._e_ref
+        link = make_link(prev, body, anchor_prev, normal, self.ds / 4, scale / self._c_ref[j], scale / self._cs_ref[j], self._beta, rest)
+        self.space.add(body, shape, *link.constraints)
+        self.bodies.append(body)
+        self.shapes.append(shape)
+        self.links.append(link)
+        self.springs.append(link.bend)
+        self._rest_since.append(math.inf)
+
+    def _start_chain(self, length: float) -> None:
+        n = max(1, int(math.floor(length / self.ds + 1e-9)))
+        origin = self.base.copy()
+        direction = np.array([math.cos(self.base_angle), math.sin(self.base_angle)])
+        for j in range(n):
+            seg = self.ds if j < n - 1 else length - (n - 1) * self.ds
+            self._add_segment(j, seg, origin, self.base_angle)
+            origin = origin + seg * direction
+        self.length = length
+
+    # ---- pressure and joint law -------------------------------------------------
+    def _apply_pressure(self, p: float) -> None:
+        """Rescale joint stiffness and wrinkling moments to pressure ``p`` (Pa)."""
+        scale = self._law.effective_modulus(p) / self._e_ref
+        n = len(self.springs)
+        self._k_now = scale / self._c_ref[:n]
+        self._mw_now = 0.5 * max(p, 0.0) * math.pi * self._r3[:n]
+        self._p_applied = p
+        beta = self._beta
+        for j in range(self.active_start, n):
+            self.links[j].shear.stiffness = scale / self._cs_ref[j] / beta
+        self._update_joint_law()
+
+    def joint_angles(self) -> np.ndarray:
+        """Relative rotation of every joint (rad); joint 0 is measured against the clamp."""
+        ang = np.fromiter((b.angle for b in self.bodies), float, len(self.bodies))
+        prev = np.concatenate(([self.base_angle], ang[:-1]))
+        return ang - prev
+
+    def joint_moments(self) -> np.ndarray:
+        """Joint moments (N m) from the non-linear law at the current angles."""
+        phi = self.joint_angles()
+        return joint_moment(phi, self._k_now[: len(phi)], self._mw_now[: len(phi)])
+
+    def _update_joint_law(self) -> None:
+        a = self.active_start
+        phi = self.joint_angles()
+        moments = self.joint_moments()
+        k = self._k_now
+        with np.errstate(divide="ignore", invalid="ignore"):
+            secant = np.where(np.abs(phi) > 1e-12, moments / phi, k[: len(phi)])
+        beta = self._beta
+        for j in range(a, len(self.springs)):
+            self.springs[j].stiffness = float(secant[j]) / beta
+        mc = 2.0 * self._mw_now[: len(phi)]
+        kinked = np.nonzero(np.abs(moments) >= KINK_MOMENT_FRACTION * mc)[0] if np.any(mc > 0) else []
+        for j in kinked:
+            if j not in self._kinked:
+                self._kinked.add(int(j))
+                self._event("kink", joint_mm=round(float(self.nodes[j]) * 1e3, 3), at_band=bool(self._r3[j] < 0.999 * self.design.radius_m**3))
+        if len(kinked) == 0 and self._kinked:
+            self._kinked = {j for j in self._kinked if abs(moments[j]) >= 0.8 * KINK_MOMENT_FRACTION * mc[j]}
+        self._turning = self._frozen_turning + float(np.sum(np.abs(phi[a:])))
+
+    # ---- stepping ---------------------------------------------------------------
+    def set_pressure_command(self, pressure_pa: float) -> float:
+        """Command the regulator (Pa, clipped to [0, 8 kPa]); returns the clipped command."""
+        return self.regulator.set_command(pressure_pa)
+
+    @property
+    def pressure(self) -> float:
+        return self.regulator.pressure
+
+    @property
+    def tip_position(self) -> np.ndarray:
+        b, sh = self.bodies[-1], self.shapes[-1]
+        return np.array(b.local_to_world(sh.b))
+
+    @property
+    def tip_direction(self) -> np.ndarray:
+        a = self.bodies[-1].angle
+        return np.array([math.cos(a), math.sin(a)])
+
+    @property
+    def kinked_joints(self) -> list[int]:
+        return sorted(self._kinked)
+
+    def _event(self, kind: str, **detail) -> None:
+        self.events.append(SimEvent(round(self.t, 6), kind, round(self.length * 1e3, 3), detail))
+
+    def _tip_reaction(self) -> None:
+        """Wall force on the tip body (N) and its component against growth."""
+        body = self.bodies[-1]
+        total = [0.0, 0.0]
+        touching = False
+
+        def acc(arb):
+            nonlocal touching
+            imp = arb.total_impulse
+            total[0] += imp.x
+            total[1] += imp.y
+            touching = True
+
+        body.each_arbiter(acc)
+        dt = self.cfg.dt_s
+        f = np.array(total) / dt
+        self.tip_contact = f
+        t = self.tip_direction
+        self.tip_force = max(0.0, -float(f @ t))
+        mag = float(math.hypot(*f))
+        self.max_contact_force = max(self.max_contact_force, mag)
+        if touching and not self._in_contact:
+            self._event("contact", force_n=round(mag, 6))
+        self._in_contact = touching
+
+    def _grow(self, v: float) -> None:
+        if v <= 0:
+            return
+        dl = v * self.cfg.dt_s
+        new_len = min(self.length + dl, self.design.length_m)
+        dl = new_len - self.length
+        if dl <= 0:
+            return
+        # bands reaching the tip
+        for i, b in enumerate(self.design.bands):
+            if i not in self._bands_reached and new_len >= b.position_m - b.width_m / 2:
+                self._bands_reached.add(i)
+                self.length = new_len
+                self._event("band_at_tip", band=i, reduction=b.reduction)
+        self.length = new_len
+        j = len(self.bodies) - 1
+        sh = self.shapes[-1]
+        seg = self.length - self.nodes[j]
+        if seg >= 2 * self.ds - 1e-12 and j + 1 < len(self.nodes):
+            # split: the tip segment becomes a full segment and a new tip starts at node j+1
+            sh.unsafe_set_endpoints((0.0, 0.0), (self.ds, 0.0))
+            sh.unsafe_set_radius(self._radius_between(self.nodes[j], self.nodes[j] + self.ds))
+            body = self.bodies[-1]
+            origin = np.array(body.local_to_world((self.ds, 0.0)))
+            self._add_segment(j + 1, seg - self.ds, origin, body.angle)
+            nb = self.bodies[-1]
+            nb.velocity = body.velocity_at_local_point((self.ds, 0.0))
+            nb.angular_velocity = body.angular_velocity
+            n = len(self.springs)
+            scale = self._law.effective_modulus(self._p_applied) / self._e_ref
+            self._k_now = scale / self._c_ref[:n]
+            self._mw_now = 0.5 * max(self._p_applied, 0.0) * math.pi * self._r3[:n]
+            self.springs[-1].stiffness = float(self._k_now[-1]) / self._beta
+        else:
+            sh.unsafe_set_endpoints((0.0, 0.0), (seg, 0.0))
+
+    def _tip_threshold(self) -> tuple[float, float]:
+        """Eversion threshold (Pa) of the material at the tip, and the tip area (m^2)."""
+        s_tip = self.length
+        rho = 0.0
+        for z in self._ref_section.zones:
+            if z.start_m <= s_tip <= z.end_m:
+                rho = max(rho, z.reduction * float(z.shape(s_tip)))
+        r_tip = self.design.radius_m * (1 - rho)
+        return float(self.threshold(rho)), math.pi * r_tip * r_tip
+
+    def _push_tip(self, p: float, p_y: float, area: float) -> None:
+        """The everting tip's force on whatever is ahead: ``A (p exp(-mu_b Theta) - p_y)``,
+        along the tip (a follower load).  Against a wall it is what the contact resists,
+        so a blocked tip stalls exactly where the growth law says it should."""
+        if self.length >= self.design.length_m:
+            return
+        f = area * (p * math.exp(-self.growth.bend_loss * self._turning) - p_y)
+        if f > 0:
+            sh = self.shapes[-1]
+            self.bodies[-1].apply_force_at_local_point((f, 0.0), (sh.b.x, 0.0))
+
+    def _required_pressure(self, p_y: float, area: float) -> float:
+        tail = tail_weight_pressure(self.design.diameter_m, self.design.wall_thickness_m, self.length) if self.vertical_tail else 0.0
+        return self.growth.required_pressure(p_y, self.tip_force, area, self._turning, tail)
+
+    def _freeze_check(self) -> None:
+        """Move resting segments far behind the tip out of the active set."""
+        cut = self.length - self.cfg.active_length_m
+        j = self.active_start
+        while j < len(self.bodies) - 2 and self.nodes[j] + self.ds < cut:
+            b = self.bodies[j]
+            speed = abs(b.velocity.x) + abs(b.velocity.y) + abs(b.angular_velocity) * self.ds
+            if speed < self.cfg.freeze_speed_m_per_s:
+                if self._rest_since[j] == math.inf:
+                    self._rest_since[j] = self.t
+                if self.t - self._rest_since[j] >= self.cfg.freeze_time_s and j == self.active_start:
+                    phi = self.joint_angles()
+                    self._frozen_turning += abs(float(phi[j]))
+                    self.space.remove(*self.links[j].constraints)
+                    b.velocity = (0.0, 0.0)
+                    b.angular_velocity = 0.0
+                    b.body_type = pymunk.Body.STATIC
+                    self.active_start += 1
+            else:
+                self._rest_since[j] = math.inf
+            j += 1
+
+    def step(self, n_steps: int = 1) -> None:
+        """Advance ``n_steps`` pymunk steps of ``cfg.dt_s``."""
+        cfg = self.cfg
+        dt = cfg.dt_s
+        for _ in range(n_steps):
+            p = self.regulator.advance(dt)
+            self.peak_pressure = max(self.peak_pressure, p)
+            if abs(p - self._p_applied) > 0.005 * max(self._p_applied, 100.0):
+                self._apply_pressure(p)
+            elif self.steps % cfg.law_interval == 0:
+                self._update_joint_law()
+                self._freeze_check()
+            p_y, area = self._tip_threshold()
+            self._push_tip(p, p_y, area)
+            self.space.step(dt)
+            self.t += dt
+            self.steps += 1
+            self._tip_reaction()
+            v = self.growth.speed(p, self._required_pressure(p_y, area)) if self.length < self.design.length_m else 0.0
+            self._grow(v)
+            self.growth_speed = v
+            self._stall_update(v, dt)
+        self._check_finite()
+
+    def _stall_update(self, v: float, dt: float) -> None:
+        if v < self.cfg.stall_speed_m_per_s and self.length < self.design.length_m:
+            self._stall_clock += dt
+            if self._stall_clock >= self.cfg.stall_time_s and not self._stalled:
+                self._stalled = True
+                self.stall_count += 1
+                self._event("stall", pressure_kpa=round(self.pressure / 1e3, 4))
+        else:
+            self._stall_clock = 0.0
+            self._stalled = False
+
+    @property
+    def stalled(self) -> bool:
+        return self._stalled
+
+    def _check_finite(self) -> None:
+        b = self.bodies[-1]
+        vals = (b.position.x, b.position.y, b.angle, b.velocity.x, b.velocity.y)
+        if not all(math.isfinite(v) for v in vals) or abs(b.angular_velocity) * self.cfg.dt_s > 1.0:
+            raise NumericalInstabilityError(
+                f"the chain became unstable at t = {self.t:.3f} s: lower dt_s (now {self.cfg.dt_s}) or raise "
+                f"inertia_factor (now {self.cfg.inertia_factor}) or iterations (now {self.cfg.iterations})"
+            )
+
+    def run(self, duration_s: float) -> None:
+        """Advance by ``duration_s`` seconds."""
+        self.step(int(round(duration_s / self.cfg.dt_s)))
+
+    # ---- geometry out -----------------------------------------------------------
+    def centreline(self) -> np.ndarray:
+        """Node positions from the base to the tip (m), (n+1) x 2."""
+        pts = [tuple(self.base)]
+        for b, sh in zip(self.bodies, self.shapes):
+            pts.append(tuple(b.local_to_world(sh.b)))
+        return np.array(pts)
+
+    def radii(self) -> np.ndarray:
+        """Collision radius of each segment (m)."""
+        return np.array([sh.radius for sh in self.shapes])

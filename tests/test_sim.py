@@ -1,0 +1,202 @@
+"""The pymunk simulator against the rod model, and its growth behaviour."""
+
+import math
+
+import numpy as np
+import pymunk
+import pytest
+
+from evertgym.design import Band, TubeDesign
+from evertgym.model.stiffness import paper_prototype, paper_rows, virtual_tensile_test
+from evertgym.sim import EversionSim, NumericalInstabilityError, SimConfig
+from evertgym.sim.discretize import hat_compliance, joint_moment
+from evertgym.sim.tensile import sim_tensile_test
+from evertgym.model.section import TubeSection
+
+CONFIGS = sorted({(r.bands_from_tip_mm, r.reduction) for r in paper_rows()})
+
+
+@pytest.mark.parametrize("bands, reduction", CONFIGS)
+def test_sim_tip_stiffness_within_3_percent_of_the_rod_at_20mm(bands, reduction):
+    design = paper_prototype(bands, reduction)
+    k_rod = virtual_tensile_test(design, 0.02).force[1] / 0.02
+    res = sim_tensile_test(design, 0.02)
+    assert res.converged
+    assert res.n_per_m == pytest.approx(k_rod, rel=0.03)
+
+
+@pytest.mark.parametrize("bands, reduction", CONFIGS)
+def test_sim_tip_stiffness_within_5_percent_of_the_rod_at_60mm(bands, reduction):
+    design = paper_prototype(bands, reduction)
+    k_rod = virtual_tensile_test(design, 0.06).force[1] / 0.06
+    res = sim_tensile_test(design, 0.06)
+    assert res.converged
+    assert res.n_per_m == pytest.approx(k_rod, rel=0.05)
+
+
+def test_hat_lumping_is_exact_for_a_uniform_rod():
+    design = TubeDesign()
+    sec = TubeSection(design, 6900.0)
+    ds = 0.005
+    nodes = np.arange(0, 0.2, ds)
+    c = hat_compliance(sec, nodes, 0.2)
+    ei = sec.bare_bending_stiffness
+    assert c[0] == pytest.approx(ds / (2 * ei), rel=1e-9)  # the clamp: 2 EI / ds
+    assert np.allclose(c[1:], ds / ei, rtol=1e-9)
+
+
+@pytest.mark.parametrize(
+    "cfg",
+    [
+        SimConfig(inertia_factor=16.0),
+        SimConfig(mass_ratio=0.05),
+        SimConfig(damping=1e-6),
+        SimConfig(dt_s=0.0005),
+    ],
+)
+def test_static_answer_does_not_depend_on_mass_scaling_damping_or_step(cfg):
+    design = paper_prototype((50, 100), 0.5)
+    ref = sim_tensile_test(design, 0.02)
+    alt = sim_tensile_test(design, 0.02, config=cfg)
+    assert alt.converged
+    assert alt.n_per_m == pytest.approx(ref.n_per_m, rel=3e-3)
+
+
+def test_band_kinks_before_the_bare_tube_under_the_same_moment():
+    p = 3000.0
+    sec_bare = TubeSection(TubeDesign(), p)
+    sec_band = TubeSection(TubeDesign(bands=(Band(0.3, 0.3),)), p)
+    nodes = np.array([0.3])
+    mw_bare = float(sec_bare.wrinkling_moment(0.3))
+    mw_band = float(sec_band.wrinkling_moment(0.3))
+    k_bare = 1 / float(hat_compliance(sec_bare, np.array([0.295, 0.3, 0.305]), 0.4)[1])
+    k_band = 1 / float(hat_compliance(sec_band, np.array([0.295, 0.3, 0.305]), 0.4)[1])
+    del nodes
+    # drive both joints to the same moment: 95% of the band's collapse moment
+    target = 0.95 * 2 * mw_band
+    phis = np.linspace(0, 2.0, 200001)
+    m_band = joint_moment(phis, np.full_like(phis, k_band), np.full_like(phis, mw_band))
+    m_bare = joint_moment(phis, np.full_like(phis, k_bare), np.full_like(phis, mw_bare))
+    assert m_band.max() >= target  # the band reaches its kink...
+    phi_bare = phis[np.argmax(m_bare >= target)]
+    assert abs(k_bare * phi_bare) <= mw_bare  # ...while the bare tube is still linear there
+
+
+def test_band_kinks_first_in_the_simulator():
+    """A tube with a 30% band, loaded by a growing tip moment: the first kink is at the band."""
+    design = TubeDesign(length_m=0.2, bands=(Band(0.1, 0.3),))
+    sim = EversionSim(design, config=SimConfig(initial_length_m=0.2))
+    sim.set_pressure_command(3000.0)
+    sim.run(1.0)
+    tip = sim.bodies[-1]
+    for torque in np.linspace(0.0, 0.06, 61):
+        tip.torque = float(torque)
+        for _ in range(60):
+            tip.torque = float(torque)
+            sim.step(1)
+        if sim.kinked_joints:
+            break
+    assert sim.kinked_joints, "no joint kinked"
+    first = [e for e in sim.events if e.kind == "kink"][0]
+    assert first.detail["at_band"]
+    assert abs(first.detail["joint_mm"] - 100.0) <= 10.0
+
+
+def test_free_growth_in_open_space_stays_straight():
+    sim = EversionSim(TubeDesign(length_m=0.4, bands=(Band(0.2, 0.2),)))
+    sim.set_pressure_command(3000.0)
+    sim.run(5.0)
+    assert sim.length == pytest.approx(0.4)
+    line = sim.centreline()
+    assert np.max(np.abs(line[:, 1])) < 1e-6
+    assert line[-1, 0] == pytest.approx(0.4, abs=1e-4)
+    assert [e.kind for e in sim.events] == ["band_at_tip"]
+
+
+def test_growth_speed_follows_the_law():
+    cfg = SimConfig()
+    sim = EversionSim(TubeDesign(length_m=0.6), config=cfg)
+    p = float(sim.threshold(0.0)) + 15.0  # just above the bare threshold
+    sim.set_pressure_command(p)
+    sim.run(2.0)
+    expected = cfg.growth_gain_m_per_s_per_pa * (p - float(sim.threshold(0.0)) * math.exp(cfg.bend_loss_per_rad * sim._turning))
+    assert 0 < expected < cfg.max_growth_speed_m_per_s
+    assert sim.growth_speed == pytest.approx(expected, rel=0.02)
+    sim.set_pressure_command(300.0)  # below it: no growth
+    sim.run(2.0)
+    assert sim.growth_speed == 0.0 and sim.stalled
+
+
+class _Wall:
+    """A static wall segment: the minimal scene interface (``build(space)``)."""
+
+    def __init__(self, a, b):
+        self.a, self.b = a, b
+
+    def build(self, space):
+        seg = pymunk.Segment(space.static_body, self.a, self.b, 0.002)
+        seg.friction = 1.0
+        space.add(seg)
+        return seg
+
+
+def test_growth_into_an_inclined_wall_bends_the_tube_and_stays_out_of_it():
+    wall = _Wall((0.15, -0.3), (0.75, 0.3))  # 45 degrees across the growth direction
+    sim = EversionSim(TubeDesign(length_m=0.5), scene=wall, config=SimConfig(wall_friction=0.1))
+    sim.set_pressure_command(3000.0)
+    sim.run(8.0)
+    line = sim.centreline()
+    assert line[-1, 1] > 0.05  # deflected up along the wall
+    assert any(e.kind == "contact" for e in sim.events)
+    # no node crossed the wall line (signed distance keeps the robot's side)
+    a, b = np.array(wall.a), np.array(wall.b)
+    n = np.array([-(b - a)[1], (b - a)[0]])
+    side = (line - a) @ n
+    assert np.all(side >= -1e-3)
+
+
+def test_same_inputs_same_trajectory_bit_for_bit():
+    def run():
+        wall = _Wall((0.12, -0.2), (0.3, 0.05))
+        sim = EversionSim(TubeDesign(length_m=0.35, bands=(Band(0.1, 0.1),)), scene=wall)
+        out = []
+        for p in (2000.0, 5000.0, 3000.0):
+            sim.set_pressure_command(p)
+            sim.run(1.0)
+            out.append(sim.centreline().copy())
+        return np.concatenate(out), [e.to_dict() for e in sim.events]
+
+    a, ea = run()
+    b, eb = run()
+    assert np.array_equal(a, b)
+    assert ea == eb
+
+
+def test_pressure_command_is_clipped_and_checked():
+    sim = EversionSim(TubeDesign())
+    assert sim.set_pressure_command(12000.0) == 8000.0
+    assert sim.set_pressure_command(-5.0) == 0.0
+    with pytest.raises(ValueError, match="not finite"):
+        sim.set_pressure_command(float("nan"))
+
+
+@pytest.mark.parametrize(
+    "kwargs, field",
+    [
+        (dict(segment_length_m=0.0), "segment_length_m"),
+        (dict(dt_s=-1e-3), "dt_s"),
+        (dict(damping=0.0), "damping"),
+        (dict(wall_friction=float("nan")), "wall_friction"),
+        (dict(max_growth_speed_m_per_s=5.0), "max_growth_speed_m_per_s * dt_s"),
+    ],
+)
+def test_sim_config_rejects_bad_settings(kwargs, field):
+    with pytest.raises(ValueError, match=field.replace("*", r"\*")):
+        SimConfig(**kwargs)
+
+
+def test_instability_names_the_setting_to_change():
+    sim = EversionSim(TubeDesign(), config=SimConfig(initial_length_m=0.1))
+    sim.bodies[-1].angular_velocity = 1e6
+    with pytest.raises(NumericalInstabilityError, match="dt_s"):
+        sim.step(1)
