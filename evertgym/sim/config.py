@@ -25,15 +25,17 @@ class SimConfig:
         stiffnesses are divided by ``damping ** dt`` so that the damping, which
         Chipmunk applies to the spring impulses too, does not bias the equilibrium.
         ``inertia_factor``: segment rotational inertia ``I = f k dt^2`` for the stiffest
-        adjacent joint ``k`` (f = 4 puts its local mode at 1 rad per step);
+        adjacent joint ``k`` (f = 3 puts its local mode near 1.2 rad per step; 2 is the
+        edge of stability of the explicit spring);
         ``mass_ratio``: translational mass as a fraction of a uniform bar's ``12 I /
         ds^2`` (small: the chain then relaxes in O(N) rather than O(N^2) steps).  Masses
         are scaled, not physical: only static answers are meaningful, and tests check
         they do not depend on these settings.  ``iterations``: constraint solver passes.
         ``law_interval``: steps between updates of the non-linear joint law.
     Active set
-        Segments more than ``active_length_m`` behind the tip that have moved less than
-        ``freeze_speed_m_per_s`` for ``freeze_time_s`` become static (leave the active set).
+        Segments more than ``active_length_m`` behind the tip whose mean speed over each
+        50-step check stayed below ``freeze_speed_m_per_s`` for ``freeze_time_s`` become
+        static (leave the active set).
     Physics
         ``wall_friction``: Coulomb coefficient robot-wall.  ``regulator_tau_s``: pressure
         lag.  ``growth_gain_m_per_s_per_pa``, ``bend_loss_per_rad``, ``max_growth_speed_m_per_s``:
@@ -42,16 +44,16 @@ class SimConfig:
         ``stall_time_s``: a stall is no growth faster than ``stall_speed_m_per_s`` for this long.
     """
 
-    segment_length_m: float = 0.005
-    dt_s: float = 0.001
-    damping: float = 1e-12
-    inertia_factor: float = 4.0
+    segment_length_m: float = 0.0075
+    dt_s: float = 0.002
+    damping: float = 1e-6
+    inertia_factor: float = 3.0
     mass_ratio: float = 0.01
     iterations: int = 10
     law_interval: int = 5
-    active_length_m: float = 0.25
-    freeze_speed_m_per_s: float = 2e-3
-    freeze_time_s: float = 0.5
+    active_length_m: float = 0.2
+    freeze_speed_m_per_s: float = 5e-3
+    freeze_time_s: float = 0.3
     wall_friction: float = 0.3
     regulator_tau_s: float = 0.15
     growth_gain_m_per_s_per_pa: float = GROWTH_GAIN_M_PER_S_PER_PA

@@ -38,6 +38,8 @@ from evertgym.sim.growth import GrowthLaw, PressureRegulator
 
 ROBOT_COLLISION_TYPE = 1
 _ROBOT_GROUP = 1
+#: Steps between active-set checks.
+_FREEZE_INTERVAL = 25
 #: Reference pressure at which the joint compliances are tabulated (Pa).
 _P_REF = 6900.0
 
@@ -132,10 +134,12 @@ class EversionSim:
         self.links: list[Link] = []
         self.active_start = 0  # first body still dynamic
         self._rest_since: list[float] = []
+        self._last_pose: dict[int, tuple[float, float, float]] = {}
         self._frozen_turning = 0.0
         self.events: list[SimEvent] = []
         self._kinked: set[int] = set()
         self._in_contact = False
+        self._frontal = False
         self._bands_reached: set[int] = set()
         self._stall_clock = 0.0
         self._stalled = False
@@ -221,36 +225,38 @@ class EversionSim:
             self.links[j].shear.stiffness = scale / self._cs_ref[j] / beta
         self._update_joint_law()
 
-    def joint_angles(self) -> np.ndarray:
-        """Relative rotation of every joint (rad); joint 0 is measured against the clamp."""
-        ang = np.fromiter((b.angle for b in self.bodies), float, len(self.bodies))
-        prev = np.concatenate(([self.base_angle], ang[:-1]))
-        return ang - prev
+    def joint_angles(self, start: int = 0) -> np.ndarray:
+        """Relative rotation of joints ``start..`` (rad); joint 0 is measured against the clamp."""
+        first = start - 1 if start > 0 else 0
+        ang = np.fromiter((b.angle for b in self.bodies[first:]), float, len(self.bodies) - first)
+        if start == 0:
+            return ang - np.concatenate(([self.base_angle], ang[:-1]))
+        return ang[1:] - ang[:-1]
 
-    def joint_moments(self) -> np.ndarray:
-        """Joint moments (N m) from the non-linear law at the current angles."""
-        phi = self.joint_angles()
-        return joint_moment(phi, self._k_now[: len(phi)], self._mw_now[: len(phi)])
+    def joint_moments(self, start: int = 0) -> np.ndarray:
+        """Joint moments (N m) of joints ``start..`` from the non-linear law at the current angles."""
+        phi = self.joint_angles(start)
+        return joint_moment(phi, self._k_now[start : start + len(phi)], self._mw_now[start : start + len(phi)])
 
     def _update_joint_law(self) -> None:
+        """Secant stiffness of the active joints from the non-linear law; kink events."""
         a = self.active_start
-        phi = self.joint_angles()
-        moments = self.joint_moments()
-        k = self._k_now
+        phi = self.joint_angles(a)
+        k = self._k_now[a : a + len(phi)]
+        moments = joint_moment(phi, k, self._mw_now[a : a + len(phi)])
         with np.errstate(divide="ignore", invalid="ignore"):
-            secant = np.where(np.abs(phi) > 1e-12, moments / phi, k[: len(phi)])
-        beta = self._beta
-        for j in range(a, len(self.springs)):
-            self.springs[j].stiffness = float(secant[j]) / beta
-        mc = 2.0 * self._mw_now[: len(phi)]
-        kinked = np.nonzero(np.abs(moments) >= KINK_MOMENT_FRACTION * mc)[0] if np.any(mc > 0) else []
+            secant = np.where(np.abs(phi) > 1e-12, moments / phi, k) / self._beta
+        for spring, kk in zip(self.springs[a:], secant.tolist()):
+            spring.stiffness = kk
+        mc = 2.0 * self._mw_now[a : a + len(phi)]
+        kinked = np.nonzero(np.abs(moments) >= KINK_MOMENT_FRACTION * mc)[0] + a if np.any(mc > 0) else ()
         for j in kinked:
             if j not in self._kinked:
                 self._kinked.add(int(j))
                 self._event("kink", joint_mm=round(float(self.nodes[j]) * 1e3, 3), at_band=bool(self._r3[j] < 0.999 * self.design.radius_m**3))
-        if len(kinked) == 0 and self._kinked:
-            self._kinked = {j for j in self._kinked if abs(moments[j]) >= 0.8 * KINK_MOMENT_FRACTION * mc[j]}
-        self._turning = self._frozen_turning + float(np.sum(np.abs(phi[a:])))
+        if self._kinked:  # a joint that unloads well below its kink moment is no longer kinked
+            self._kinked = {j for j in self._kinked if j < a or abs(moments[j - a]) >= 0.8 * KINK_MOMENT_FRACTION * mc[j - a]}
+        self._turning = self._frozen_turning + float(np.sum(np.abs(phi)))
 
     # ---- stepping ---------------------------------------------------------------
     def set_pressure_command(self, pressure_pa: float) -> float:
@@ -279,24 +285,29 @@ class EversionSim:
         self.events.append(SimEvent(round(self.t, 6), kind, round(self.length * 1e3, 3), detail))
 
     def _tip_reaction(self) -> None:
-        """Wall force on the tip body (N) and its component against growth."""
+        """Wall force on the tip body (N), its component against growth, and whether any
+        contact lies ahead of the tip (its normal within about 78 degrees of the tip axis)."""
         body = self.bodies[-1]
+        t = self.tip_direction
         total = [0.0, 0.0]
         touching = False
+        frontal = False
 
         def acc(arb):
-            nonlocal touching
+            nonlocal touching, frontal
             imp = arb.total_impulse
             total[0] += imp.x
             total[1] += imp.y
             touching = True
+            n = arb.normal  # from the tip's shape towards the other one
+            if n.x * t[0] + n.y * t[1] > 0.2:
+                frontal = True
 
         body.each_arbiter(acc)
-        dt = self.cfg.dt_s
-        f = np.array(total) / dt
+        f = np.array(total) / self.cfg.dt_s
         self.tip_contact = f
-        t = self.tip_direction
         self.tip_force = max(0.0, -float(f @ t))
+        self._frontal = frontal
         mag = float(math.hypot(*f))
         self.max_contact_force = max(self.max_contact_force, mag)
         if touching and not self._in_contact:
@@ -350,10 +361,13 @@ class EversionSim:
         return float(self.threshold(rho)), math.pi * r_tip * r_tip
 
     def _push_tip(self, p: float, p_y: float, area: float) -> None:
-        """The everting tip's force on whatever is ahead: ``A (p exp(-mu_b Theta) - p_y)``,
-        along the tip (a follower load).  Against a wall it is what the contact resists,
-        so a blocked tip stalls exactly where the growth law says it should."""
-        if self.length >= self.design.length_m:
+        """The everting tip's force on an obstacle ahead: ``A (p exp(-mu_b Theta) - p_y)``,
+        along the tip (a follower load).  It acts only while a contact lies ahead: the
+        pressure's end force on a free tip is carried by the tube wall's own tension and
+        loads nothing.  Against a wall it is what the contact resists, so a blocked tip
+        stalls where the growth law says it should, and the body carries that reaction
+        in compression."""
+        if self.length >= self.design.length_m or not self._frontal:
             return
         f = area * (p * math.exp(-self.growth.bend_loss * self._turning) - p_y)
         if f > 0:
@@ -365,26 +379,48 @@ class EversionSim:
         return self.growth.required_pressure(p_y, self.tip_force, area, self._turning, tail)
 
     def _freeze_check(self) -> None:
-        """Move resting segments far behind the tip out of the active set."""
+        """Move resting segments far behind the tip out of the active set.
+
+        Candidates are the segments wholly more than ``active_length_m`` behind the tip;
+        each keeps a rest timer; the contiguous run from the first active segment whose
+        timers passed ``freeze_time_s`` becomes static (their joints are removed: the
+        frozen part is rigid from then on, the first active joint is a clamp on it).
+        """
         cut = self.length - self.cfg.active_length_m
+        last = len(self.bodies) - 2
         j = self.active_start
-        while j < len(self.bodies) - 2 and self.nodes[j] + self.ds < cut:
+        freeze_upto = self.active_start
+        contiguous = True
+        interval = _FREEZE_INTERVAL * self.cfg.dt_s
+        while j < last and self.nodes[j] + self.ds < cut:
             b = self.bodies[j]
-            speed = abs(b.velocity.x) + abs(b.velocity.y) + abs(b.angular_velocity) * self.ds
+            pose = (b.position.x, b.position.y, b.angle * self.ds)
+            before = self._last_pose.get(j)
+            self._last_pose[j] = pose
+            # mean speed over the check interval: contact jitter averages out
+            speed = math.inf if before is None else sum(abs(u - w) for u, w in zip(pose, before)) / interval
             if speed < self.cfg.freeze_speed_m_per_s:
                 if self._rest_since[j] == math.inf:
                     self._rest_since[j] = self.t
-                if self.t - self._rest_since[j] >= self.cfg.freeze_time_s and j == self.active_start:
-                    phi = self.joint_angles()
-                    self._frozen_turning += abs(float(phi[j]))
-                    self.space.remove(*self.links[j].constraints)
-                    b.velocity = (0.0, 0.0)
-                    b.angular_velocity = 0.0
-                    b.body_type = pymunk.Body.STATIC
-                    self.active_start += 1
+                if contiguous and self.t - self._rest_since[j] >= self.cfg.freeze_time_s:
+                    freeze_upto = j + 1
+                else:
+                    contiguous = False
             else:
                 self._rest_since[j] = math.inf
+                contiguous = False
             j += 1
+        if freeze_upto > self.active_start:
+            a = self.active_start
+            self._frozen_turning += float(np.sum(np.abs(self.joint_angles(a)[: freeze_upto - a])))
+            for k in range(a, freeze_upto):
+                b = self.bodies[k]
+                self.space.remove(*self.links[k].constraints)
+                b.velocity = (0.0, 0.0)
+                b.angular_velocity = 0.0
+                b.body_type = pymunk.Body.STATIC
+                self._last_pose.pop(k, None)
+            self.active_start = freeze_upto
 
     def step(self, n_steps: int = 1) -> None:
         """Advance ``n_steps`` pymunk steps of ``cfg.dt_s``."""
@@ -397,6 +433,7 @@ class EversionSim:
                 self._apply_pressure(p)
             elif self.steps % cfg.law_interval == 0:
                 self._update_joint_law()
+            if self.steps % _FREEZE_INTERVAL == 0:
                 self._freeze_check()
             p_y, area = self._tip_threshold()
             self._push_tip(p, p_y, area)
