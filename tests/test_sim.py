@@ -128,12 +128,12 @@ def test_growth_speed_follows_the_law():
 
 
 class _Wall:
-    """A static wall segment: the minimal scene interface (``build(space)``)."""
+    """A static wall segment: the minimal scene interface (``build(space, dt)``)."""
 
     def __init__(self, a, b):
         self.a, self.b = a, b
 
-    def build(self, space):
+    def build(self, space, dt=None):
         seg = pymunk.Segment(space.static_body, self.a, self.b, 0.002)
         seg.friction = 1.0
         space.add(seg)

@@ -54,7 +54,7 @@ class SimConfig:
     active_length_m: float = 0.2
     freeze_speed_m_per_s: float = 5e-3
     freeze_time_s: float = 0.3
-    wall_friction: float = 0.3
+    wall_friction: float = 0.2
     regulator_tau_s: float = 0.15
     growth_gain_m_per_s_per_pa: float = GROWTH_GAIN_M_PER_S_PER_PA
     bend_loss_per_rad: float = 0.08

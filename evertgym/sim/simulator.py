@@ -65,8 +65,8 @@ class EversionSim:
     Parameters
     ----------
     design: the tube and its bands.
-    scene: anything with ``build(space)`` (an :mod:`evertgym.scenes` scene) or None for
-        open space.  When given and ``base`` is None, the robot starts at
+    scene: anything with ``build(space, dt)`` (an :mod:`evertgym.scenes` scene) or None
+        for open space.  When given and ``base`` is None, the robot starts at
         ``scene.entry`` along ``scene.entry_direction``.
     config: fidelity and physics settings.
     base, direction: the base pin (m) and the initial growth direction.
@@ -95,7 +95,7 @@ class EversionSim:
         # resolve 20% of an overlap per step: the tip everts into contact geometrically
         space.collision_bias = (1.0 - 0.2) ** (1.0 / cfg.dt_s)
         self.scene = scene
-        self.scene_handles = scene.build(space) if scene is not None else None
+        self.scene_handles = scene.build(space, dt=cfg.dt_s) if scene is not None else None
         if base is None:
             base = tuple(getattr(scene, "entry", (0.0, 0.0)))
         if direction is None:
