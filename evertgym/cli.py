@@ -2,6 +2,7 @@
 
     evertgym reproduce stiffness [--json] [--plot docs/stiffness_fig3.png] [--no-sim]
     evertgym reproduce eversion [--json] [--step-kpa 0.01]
+    evertgym bench env [--json] [--steps 500] [--env ID]
     evertgym stiffness [--length-mm L] [--bands-from-tip-mm 50,100 --reduction 0.3]
                        [--pressure-kpa 6.9] [--displacement-mm D] [--design FILE] [--json]
 """
@@ -180,6 +181,28 @@ def cmd_stiffness(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_bench_env(args: argparse.Namespace) -> int:
+    import os
+
+    import evertgym  # noqa: F401  (registers the envs)
+    from evertgym.env import register_envs
+    from evertgym.env.bench import bench_env
+
+    if hasattr(os, "sched_setaffinity") and args.one_core:
+        os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
+    if not (1 <= args.steps <= 10**7):
+        raise CLIError(f"--steps = {args.steps} is out of range: allowed [1, 1e7]")
+    ids = args.env or register_envs()
+    rows = [bench_env(env_id, args.steps) for env_id in ids]
+    if args.json:
+        print(json.dumps({"rows": rows}))
+        return 0
+    print(f"{'env_id':28s} {'steps_per_s':>11s} {'sim_seconds_per_step':>20s} {'steps':>6s}")
+    for r in rows:
+        print(f"{r['env_id']:28s} {r['steps_per_s']:>11.0f} {r['sim_seconds_per_step']:>20.3f} {r['steps']:>6d}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="evertgym", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = p.add_subparsers(dest="command", required=True)
@@ -208,6 +231,14 @@ def build_parser() -> argparse.ArgumentParser:
     st.add_argument("--json", action="store_true")
     st.add_argument("--no-sim", action="store_true", help="skip the pymunk simulator's figure")
     st.set_defaults(func=cmd_stiffness)
+    bench = sub.add_parser("bench", help="benchmarks")
+    bench_sub = bench.add_subparsers(dest="target", required=True)
+    be = bench_sub.add_parser("env", help="env steps per second per registered id (random actions, one core)")
+    be.add_argument("--steps", type=int, default=500)
+    be.add_argument("--env", action="append", help="an env id (repeatable); default: every registered id")
+    be.add_argument("--no-pin", dest="one_core", action="store_false", help="do not pin the process to one core")
+    be.add_argument("--json", action="store_true")
+    be.set_defaults(func=cmd_bench_env)
     return p
 
 

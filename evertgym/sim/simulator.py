@@ -429,10 +429,11 @@ class EversionSim:
         for _ in range(n_steps):
             p = self.regulator.advance(dt)
             self.peak_pressure = max(self.peak_pressure, p)
-            if abs(p - self._p_applied) > 0.005 * max(self._p_applied, 100.0):
-                self._apply_pressure(p)
-            elif self.steps % cfg.law_interval == 0:
-                self._update_joint_law()
+            if self.steps % cfg.law_interval == 0:
+                if abs(p - self._p_applied) > 0.005 * max(self._p_applied, 100.0):
+                    self._apply_pressure(p)  # rescales the joints, then updates the law
+                else:
+                    self._update_joint_law()
             if self.steps % _FREEZE_INTERVAL == 0:
                 self._freeze_check()
             p_y, area = self._tip_threshold()

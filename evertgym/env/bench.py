@@ -1,0 +1,32 @@
+"""Env throughput: steps per second per registered id, random actions, one core."""
+
+from __future__ import annotations
+
+import time
+
+import gymnasium as gym
+import numpy as np
+
+
+def bench_env(env_id: str, steps: int = 500, seed: int = 0) -> dict:
+    """Run ``steps`` env steps with uniform random actions (resetting as episodes end)."""
+    env = gym.make(env_id)
+    rng = np.random.default_rng(seed)
+    env.reset(seed=seed)
+    env.action_space.seed(seed)
+    done_steps, t0 = 0, time.perf_counter()
+    while done_steps < steps:
+        _, _, term, trunc, _ = env.step(rng.uniform(-1, 1, 1).astype(np.float32))
+        done_steps += 1
+        if term or trunc:
+            env.reset()
+    wall = time.perf_counter() - t0
+    unwrapped = env.unwrapped
+    env.close()
+    return {
+        "env_id": env_id,
+        "steps_per_s": done_steps / wall,
+        "sim_seconds_per_step": unwrapped.control_dt,
+        "steps": done_steps,
+        "wall_s": wall,
+    }
