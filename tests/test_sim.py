@@ -142,7 +142,7 @@ class _Wall:
 
 def test_growth_into_an_inclined_wall_bends_the_tube_and_stays_out_of_it():
     wall = _Wall((0.15, -0.3), (0.75, 0.3))  # 45 degrees across the growth direction
-    sim = EversionSim(TubeDesign(length_m=0.5), scene=wall, config=SimConfig(wall_friction=0.1))
+    sim = EversionSim(TubeDesign(length_m=0.5), scene=wall, config=SimConfig(tip_friction=0.1))
     sim.set_pressure_command(3000.0)
     sim.run(8.0)
     line = sim.centreline()

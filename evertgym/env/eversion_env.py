@@ -56,6 +56,8 @@ class EversionEnv(gym.Env):
         (see :mod:`evertgym.env.presets`); seed ``"episode"`` draws one per episode.
     design: a :class:`TubeDesign` or a design-file dict (mm).
     band_offset_mm: ``(lo, hi)``: all bands shift by a uniform draw per episode.
+    entry_offset_mm: ``(lo, hi)``: the base starts this far across the channel from its
+        entry point (a uniform draw per episode; the paper varied the robot's start).
     control_hz, max_episode_s, action_mode, max_increment_kpa, history, tip_sensing,
     scene_ahead, rupture_kpa: see above.  progress_weight, pressure_weight,
     contact_weight, stall_weight, success_weight: reward weights.
@@ -70,6 +72,7 @@ class EversionEnv(gym.Env):
         scene: dict | None = None,
         design: TubeDesign | dict | None = None,
         band_offset_mm: tuple[float, float] = (0.0, 0.0),
+        entry_offset_mm: tuple[float, float] = (0.0, 0.0),
         control_hz: float = 10.0,
         max_episode_s: float = 30.0,
         action_mode: str = "absolute",
@@ -94,6 +97,10 @@ class EversionEnv(gym.Env):
         if not (math.isfinite(lo) and math.isfinite(hi) and lo <= hi):
             raise ValueError(f"band_offset_mm = {band_offset_mm!r}: expected [lo, hi] with lo <= hi (mm)")
         self.band_offset = (lo / 1e3, hi / 1e3)
+        elo, ehi = (float(v) for v in entry_offset_mm)
+        if not (math.isfinite(elo) and math.isfinite(ehi) and elo <= ehi):
+            raise ValueError(f"entry_offset_mm = {entry_offset_mm!r}: expected [lo, hi] with lo <= hi (mm)")
+        self.entry_offset = (elo / 1e3, ehi / 1e3)
         _positive("control_hz", control_hz, 1000.0, "Hz")
         _positive("max_episode_s", max_episode_s, 1e5, "s")
         if action_mode not in ("absolute", "increment"):
@@ -129,7 +136,7 @@ class EversionEnv(gym.Env):
         self._fig = None
 
     # ---- episode --------------------------------------------------------------
-    def _draw_episode(self) -> tuple[Any, TubeDesign]:
+    def _draw_episode(self) -> tuple[Any, TubeDesign, np.ndarray]:
         rng = self.np_random
         params = sample_params(dict(self.scene_cfg.get("params", {})), rng)
         seed = self.scene_cfg.get("seed", "episode")
@@ -144,12 +151,15 @@ class EversionEnv(gym.Env):
                 tuple(Band(b.position_m + off, b.reduction, b.width_m) for b in design.bands),
                 design.membrane_modulus_pa, design.pressure_stiffening,
             )
-        return scene, design
+        lateral = float(rng.uniform(*self.entry_offset)) if self.entry_offset[1] > self.entry_offset[0] else 0.0
+        d = np.asarray(scene.entry_direction, dtype=float)
+        base = np.asarray(scene.entry, dtype=float) + lateral * np.array([-d[1], d[0]])
+        return scene, design, base
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
-        self.scene, design = self._draw_episode()
-        self.sim = EversionSim(design, scene=self.scene, config=self.sim_config)
+        self.scene, design, base = self._draw_episode()
+        self.sim = EversionSim(design, scene=self.scene, config=self.sim_config, base=tuple(base))
         self.command_pa = 0.0
         self._s_tip = self._tip_arclength()
         self._hist = [self._sample()] * (self.history + 1)

@@ -94,6 +94,8 @@ PARAMS: dict[str, Param] = {
                                       doc="suspension stiffness per mm of tube, normal and tangential"),
     "wall_influence_mm": Param(10.0, lo=0.0, hi=200.0, unit="mm", doc="decay length of an indentation along the wall"),
     "piece_length_mm": Param(10.0, lo=2.0, hi=100.0, unit="mm", doc="length of each compliant wall piece"),
+    "wall_travel_mm": Param(8.0, lo=0.5, hi=100.0, unit="mm",
+                            doc="largest excursion of the wall from rest (board, magnets, surrounding organs)"),
     "variant": Param(False, kind="bool", doc="draw the parameters not given from anatomical ranges"),
 }
 
@@ -213,6 +215,7 @@ def colon_geometry(p: Mapping[str, Any], rng: np.random.Generator) -> Channel:
             suspension_n_per_m2=p["mesocolon_n_per_m_per_mm"] * 1e3,
             influence_m=p["wall_influence_mm"] * MM,
             piece_length_m=p["piece_length_mm"] * MM,
+            max_travel_m=p["wall_travel_mm"] * MM,
         )
     goal = p["bend_at_mm"] * MM + b_len + p["goal_after_bend_mm"] * MM
     return Channel(path=path, lumen_width=lumen_profile(path.s, p), goal_arclength=goal, wall_radius=0.5 * h,

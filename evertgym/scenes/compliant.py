@@ -93,6 +93,10 @@ class WallMechanics:
     suspension_n_per_m2: float
     influence_m: float
     piece_length_m: float
+    #: Largest excursion of a wall piece from its rest place (m): the phantom lies on a
+    #: board held by bands and magnets (in vivo: the surrounding organs), so a pushed wall
+    #: stops; and a 2-D wall of separate pieces would otherwise open gaps a robot can pass.
+    max_travel_m: float = 0.008
     poisson: float = 0.49
     density: float = ECOFLEX_DENSITY
 
@@ -252,7 +256,9 @@ class WallNetwork:
             pts = self.outline[i]
             segs = [style_wall_shape(pymunk.Segment(body, tuple(pts[j]), tuple(pts[j + 1]), self.shape_radius))
                     for j in range(len(pts) - 1)]
-            space.add(body, *segs)
+            tether = pymunk.SlideJoint(space.static_body, body, tuple(self.position[i]), (0.0, 0.0), 0.0,
+                                       self.mechanics.max_travel_m)
+            space.add(body, *segs, tether)
             bodies.append(body)
             shapes += segs
         damping = self.damping

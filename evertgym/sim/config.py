@@ -37,7 +37,10 @@ class SimConfig:
         50-step check stayed below ``freeze_speed_m_per_s`` for ``freeze_time_s`` become
         static (leave the active set).
     Physics
-        ``wall_friction``: Coulomb coefficient robot-wall.  ``regulator_tau_s``: pressure
+        ``wall_friction``: Coulomb coefficient between the everted body and a wall: the
+        everted body is laid down and does not slide along the walls, so it is high.
+        ``tip_friction``: the same for the everting tip segment, whose fold rolls over a
+        wall as it everts and slides easily.  ``regulator_tau_s``: pressure
         lag.  ``growth_gain_m_per_s_per_pa``, ``bend_loss_per_rad``, ``max_growth_speed_m_per_s``:
         the growth law (:mod:`evertgym.sim.growth`).
     Events
@@ -54,7 +57,8 @@ class SimConfig:
     active_length_m: float = 0.2
     freeze_speed_m_per_s: float = 5e-3
     freeze_time_s: float = 0.3
-    wall_friction: float = 0.2
+    wall_friction: float = 1.0
+    tip_friction: float = 0.2
     regulator_tau_s: float = 0.15
     growth_gain_m_per_s_per_pa: float = GROWTH_GAIN_M_PER_S_PER_PA
     bend_loss_per_rad: float = 0.08
@@ -75,6 +79,7 @@ class SimConfig:
         _check("freeze_speed_m_per_s", self.freeze_speed_m_per_s, 0.0, 10.0)
         _check("freeze_time_s", self.freeze_time_s, 0.0, 1e6)
         _check("wall_friction", self.wall_friction, 0.0, 5.0)
+        _check("tip_friction", self.tip_friction, 0.0, 5.0)
         _check("regulator_tau_s", self.regulator_tau_s, 0.0, 100.0)
         _check("growth_gain_m_per_s_per_pa", self.growth_gain_m_per_s_per_pa, 0.0, 1.0)
         _check("bend_loss_per_rad", self.bend_loss_per_rad, 0.0, 10.0)

@@ -183,7 +183,7 @@ class EversionSim:
         body.position = tuple(origin)
         body.angle = angle
         shape = pymunk.Segment(body, (0.0, 0.0), (length, 0.0), self._radius_between(self.nodes[j], self.nodes[j] + length))
-        shape.friction = self.cfg.wall_friction
+        shape.friction = self.cfg.tip_friction  # the newest segment is the tip
         shape.elasticity = 0.0
         shape.collision_type = ROBOT_COLLISION_TYPE
         shape.filter = pymunk.ShapeFilter(group=_ROBOT_GROUP)
@@ -209,6 +209,8 @@ class EversionSim:
         for j in range(n):
             seg = self.ds if j < n - 1 else length - (n - 1) * self.ds
             self._add_segment(j, seg, origin, self.base_angle)
+            if j < n - 1:
+                self.shapes[-1].friction = self.cfg.wall_friction
             origin = origin + seg * direction
         self.length = length
 
@@ -336,6 +338,7 @@ class EversionSim:
             # split: the tip segment becomes a full segment and a new tip starts at node j+1
             sh.unsafe_set_endpoints((0.0, 0.0), (self.ds, 0.0))
             sh.unsafe_set_radius(self._radius_between(self.nodes[j], self.nodes[j] + self.ds))
+            sh.friction = self.cfg.wall_friction  # no longer the tip: laid down
             body = self.bodies[-1]
             origin = np.array(body.local_to_world((self.ds, 0.0)))
             self._add_segment(j + 1, seg - self.ds, origin, body.angle)
