@@ -203,6 +203,40 @@ def cmd_bench_env(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_train(args: argparse.Namespace) -> int:
+    from evertgym.agents.train import train
+
+    summary = train(args.config, out_dir=args.out, resume=args.resume, progress=args.progress)
+    print(json.dumps(summary, indent=2))
+    return 0
+
+
+def cmd_eval(args: argparse.Namespace) -> int:
+    from evertgym.agents.evaluate import evaluate
+
+    if args.episodes < 1:
+        raise CLIError(f"--episodes = {args.episodes} is out of range: allowed >= 1")
+    rows = evaluate(args.policies, args.env, args.episodes)
+    if args.json:
+        print(json.dumps({"rows": rows}))
+        return 0
+    print(f"{'policy':30s} {'episodes':>8s} {'success':>8s} {'95% CI':>15s} {'time_to_goal_s':>14s} {'peak_kpa':>9s} {'max_force_n':>11s}")
+    for r in rows:
+        print(
+            f"{r['policy'][-30:]:30s} {r['episodes']:>8d} {r['success_rate']:>8.2f} [{r['ci_low']:.2f}, {r['ci_high']:.2f}]".ljust(65)
+            + f" {r['mean_time_to_goal_s']:>14.2f} {r['mean_peak_pressure_kpa']:>9.2f} {r['mean_max_contact_force_n']:>11.2f}"
+        )
+    return 0
+
+
+def cmd_rollout(args: argparse.Namespace) -> int:
+    from evertgym.agents.rollout import rollout_gif
+
+    info = rollout_gif(args.policy, args.env, args.out, seed=args.seed)
+    print(json.dumps(info))
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="evertgym", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = p.add_subparsers(dest="command", required=True)
@@ -231,6 +265,27 @@ def build_parser() -> argparse.ArgumentParser:
     st.add_argument("--json", action="store_true")
     st.add_argument("--no-sim", action="store_true", help="skip the pymunk simulator's figure")
     st.set_defaults(func=cmd_stiffness)
+    tr = sub.add_parser("train", help="train a pressure policy from a config in agents/")
+    tr.add_argument("config")
+    tr.add_argument("--out", default="runs", help="runs folder (default: runs/)")
+    tr.add_argument("--resume", action="store_true", help="continue from the newest checkpoint")
+    tr.add_argument("--no-progress", dest="progress", action="store_false")
+    tr.set_defaults(func=cmd_train)
+
+    ev = sub.add_parser("eval", help="evaluate policies side by side on the same held-out episodes")
+    ev.add_argument("policies", nargs="+", help="a baseline name (constant, operator, tuned) or a saved model (.zip)")
+    ev.add_argument("--env", required=True)
+    ev.add_argument("--episodes", type=int, default=20)
+    ev.add_argument("--json", action="store_true")
+    ev.set_defaults(func=cmd_eval)
+
+    ro = sub.add_parser("rollout", help="render one episode to a GIF")
+    ro.add_argument("policy")
+    ro.add_argument("--env", required=True)
+    ro.add_argument("--out", required=True, help="FILE.gif")
+    ro.add_argument("--seed", type=int, default=0)
+    ro.set_defaults(func=cmd_rollout)
+
     bench = sub.add_parser("bench", help="benchmarks")
     bench_sub = bench.add_subparsers(dest="target", required=True)
     be = bench_sub.add_parser("env", help="env steps per second per registered id (random actions, one core)")

@@ -16,6 +16,9 @@ from evertgym.sim import EversionSim, SimConfig
 from evertgym.sim.growth import MAX_PRESSURE_PA
 
 _LOOKAHEAD_M = (0.02, 0.04, 0.06, 0.08, 0.10)
+#: Scene seeds drawn for episodes stay below this; evaluation on held-out scenes uses
+#: seeds from here up (``reset(options={"scene_seed": ...})``).
+HELD_OUT_SEED_BASE = 1_000_000_000
 
 
 class EversionEnv(gym.Env):
@@ -42,6 +45,10 @@ class EversionEnv(gym.Env):
     * ``- contact_weight * F_max / 1 N``: the largest tip contact force in the step;
     * ``- stall_weight`` while the robot is stalled (no growth for ``stall_time_s``);
     * ``+ success_weight`` once, on reaching the goal.
+
+    **Scenes**: ``reset(seed=...)`` seeds everything drawn for the episode; scene seeds for
+    random families are drawn below :data:`HELD_OUT_SEED_BASE`, and
+    ``reset(options={"scene_seed": s})`` fixes one (evaluation on held-out scenes).
 
     **Episode end**: ``terminated`` when the tip passes the scene's goal (success), when
     the robot has fully everted, or on rupture (measured pressure above ``rupture_kpa``;
@@ -136,12 +143,15 @@ class EversionEnv(gym.Env):
         self._fig = None
 
     # ---- episode --------------------------------------------------------------
-    def _draw_episode(self) -> tuple[Any, TubeDesign, np.ndarray]:
+    def _draw_episode(self, scene_seed: int | None) -> tuple[Any, TubeDesign, np.ndarray]:
         rng = self.np_random
         params = sample_params(dict(self.scene_cfg.get("params", {})), rng)
         seed = self.scene_cfg.get("seed", "episode")
-        if seed == "episode":
-            seed = int(rng.integers(2**31 - 1))
+        drawn = int(rng.integers(HELD_OUT_SEED_BASE))
+        if scene_seed is not None:
+            seed = int(scene_seed)
+        elif seed == "episode":
+            seed = drawn
         scene = make_scene(SceneSpec(self.scene_cfg["family"], params, seed))
         design = self.design
         if design.bands and self.band_offset[1] > self.band_offset[0]:
@@ -158,7 +168,8 @@ class EversionEnv(gym.Env):
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
-        self.scene, design, base = self._draw_episode()
+        scene_seed = (options or {}).get("scene_seed")
+        self.scene, design, base = self._draw_episode(scene_seed)
         self.sim = EversionSim(design, scene=self.scene, config=self.sim_config, base=tuple(base))
         self.command_pa = 0.0
         self._s_tip = self._tip_arclength()

@@ -1,0 +1,112 @@
+"""Baseline pressure policies with the interface every evertgym policy has.
+
+A policy is reset at the start of each episode with the env (so it knows the control
+period) and maps the env's observation and info to an action in [-1, 1] (absolute
+pressure mode: ``p = (a + 1) / 2 * 8 kPa``).  Baselines read only what an operator sees:
+the measured insertion length (``info["insertion_length_mm"]``) and the clock.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from evertgym.sim.growth import MAX_PRESSURE_PA
+
+
+def pressure_to_action(pressure_kpa: float) -> np.ndarray:
+    """The absolute-mode action for a pressure command (kPa)."""
+    return np.array([2.0 * pressure_kpa * 1e3 / MAX_PRESSURE_PA - 1.0], dtype=np.float32)
+
+
+def _check(name: str, value: float, lo: float, hi: float, unit: str) -> None:
+    if not (isinstance(value, (int, float)) and math.isfinite(value) and lo <= value <= hi):
+        raise ValueError(f"{name} = {value!r} is out of range: allowed [{lo:g}, {hi:g}] {unit}")
+
+
+class Policy:
+    """Interface: ``reset(env)`` then ``act(obs, info) -> action`` each control step."""
+
+    name = "policy"
+
+    def reset(self, env) -> None:
+        self.dt = env.unwrapped.control_dt
+
+    def act(self, obs: np.ndarray, info: dict) -> np.ndarray:  # pragma: no cover - interface
+        raise NotImplementedError
+
+
+@dataclass
+class ConstantPressure(Policy):
+    """Hold one pressure (kPa) for the whole episode (the paper's U-bend protocol at 3 kPa)."""
+
+    pressure_kpa: float = 3.0
+    name: str = field(default="constant", init=False)
+
+    def __post_init__(self) -> None:
+        _check("pressure_kpa", self.pressure_kpa, 0.0, 8.0, "kPa")
+
+    def act(self, obs, info):
+        return pressure_to_action(self.pressure_kpa)
+
+
+@dataclass
+class OperatorProtocol(Policy):
+    """The paper's operator (colon case study): start low, raise the pressure gradually
+    whenever progress stalls, up to 8 kPa.
+
+    Progress stalls when the insertion length grew by less than ``stall_mm`` over the
+    last ``stall_s`` seconds; the command then rises by ``step_kpa`` (and the window
+    restarts).  With ``relax_kpa_per_s > 0`` the command eases back towards
+    ``start_kpa`` while the robot is moving (the paper's operator kept 2-4 kPa on straight
+    sections); the default holds it.
+    """
+
+    start_kpa: float = 2.0
+    step_kpa: float = 0.5
+    stall_s: float = 1.0
+    stall_mm: float = 2.0
+    max_kpa: float = 8.0
+    relax_kpa_per_s: float = 0.0
+    name: str = field(default="operator", init=False)
+
+    def __post_init__(self) -> None:
+        _check("start_kpa", self.start_kpa, 0.0, 8.0, "kPa")
+        _check("step_kpa", self.step_kpa, 0.0, 8.0, "kPa")
+        _check("stall_s", self.stall_s, 0.0, 60.0, "s")
+        _check("stall_mm", self.stall_mm, 0.0, 1000.0, "mm")
+        _check("max_kpa", self.max_kpa, 0.0, 8.0, "kPa")
+        _check("relax_kpa_per_s", self.relax_kpa_per_s, 0.0, 100.0, "kPa/s")
+
+    def reset(self, env) -> None:
+        super().reset(env)
+        self.p = self.start_kpa
+        self.window: list[float] = []
+
+    def act(self, obs, info):
+        self.window.append(float(info["insertion_length_mm"]))
+        n = max(1, int(round(self.stall_s / self.dt)))
+        if len(self.window) > n:
+            self.window = self.window[-(n + 1) :]
+            if self.window[-1] - self.window[0] < self.stall_mm:
+                self.p = min(self.p + self.step_kpa, self.max_kpa)
+                self.window = self.window[-1:]
+            elif self.relax_kpa_per_s > 0:
+                self.p = max(self.start_kpa, self.p - self.relax_kpa_per_s * self.dt)
+        return pressure_to_action(self.p)
+
+
+BASELINES = {"constant": ConstantPressure, "operator": OperatorProtocol}
+
+
+def make_baseline(name: str, **kwargs) -> Policy:
+    """A baseline policy by name (``constant``, ``operator``, ``tuned``) with its parameters."""
+    if name == "tuned":
+        from evertgym.agents.tuned import load_tuned
+
+        return load_tuned(**kwargs)
+    if name not in BASELINES:
+        raise ValueError(f"unknown baseline {name!r}: allowed {sorted(BASELINES) + ['tuned']}")
+    return BASELINES[name](**kwargs)

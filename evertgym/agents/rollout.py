@@ -1,0 +1,39 @@
+"""Render one episode of a policy to an animated GIF (Pillow, via matplotlib's dependency)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import gymnasium as gym
+
+from evertgym.agents.policies import make_policy
+
+
+def rollout_gif(policy_desc: str, env_id: str, out: str | Path, seed: int = 0, every: int = 2) -> dict:
+    """Run one episode with ``render_mode="rgb_array"``; every ``every``-th frame goes to ``out``."""
+    from PIL import Image
+
+    import evertgym  # noqa: F401
+
+    out = Path(out)
+    if out.suffix.lower() != ".gif":
+        raise ValueError(f"--out = {str(out)!r}: expected a .gif file")
+    env = gym.make(env_id, render_mode="rgb_array")
+    policy = make_policy(policy_desc)
+    obs, info = env.reset(seed=seed)
+    policy.reset(env)
+    frames = [env.render()]
+    k = 0
+    while True:
+        obs, _, term, trunc, info = env.step(policy.act(obs, info))
+        k += 1
+        if k % every == 0 or term or trunc:
+            frames.append(env.render())
+        if term or trunc:
+            break
+    images = [Image.fromarray(f) for f in frames]
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fps = env.metadata.get("render_fps", 10) / every
+    images[0].save(out, save_all=True, append_images=images[1:], duration=int(1000 / fps), loop=0)
+    env.close()
+    return {"frames": len(images), "success": bool(info["success"]), "out": str(out)}

@@ -1,0 +1,171 @@
+"""Training pressure policies with stable-baselines3 (CPU torch).
+
+A config is a TOML file in ``agents/`` in the spirit of rl-zoo3's hyperparameter files::
+
+    env_id = "evertgym/Colon-v0"
+    algo = "ppo"                 # ppo or sac
+    seed = 0
+    n_envs = 2                   # SubprocVecEnv workers
+    n_timesteps = 200000
+    normalize = true             # VecNormalize (observations and rewards)
+    checkpoint_freq = 10000      # env steps between checkpoints
+    eval_episodes = 20           # on held-out scene seeds after training
+    [env_kwargs]                 # overrides of the preset
+    [hyperparams]                # passed to the SB3 algorithm
+    learning_rate = 3e-4
+    [hyperparams.policy_kwargs]
+    net_arch = [64, 64]
+
+``train(config)`` writes ``runs/<name>/``: TensorBoard logs, ``checkpoints/`` (model and
+VecNormalize statistics every ``checkpoint_freq`` steps), ``final.zip`` (+ its
+``final_vecnormalize.pkl``) and ``eval.json``.  ``resume=True`` restarts from the newest
+checkpoint and continues the step counter (SB3's ``reset_num_timesteps=False``).
+
+Scene seeds: training episodes draw their scenes from the env's own ``np_random``
+(``seed + rank``); evaluation uses scene seeds from :data:`HELD_OUT_SEED_BASE` upwards,
+which training never draws (:class:`evertgym.env.EversionEnv` keeps training seeds below
+it).
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import sys
+from pathlib import Path
+from typing import Any
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+import gymnasium as gym
+import numpy as np
+
+from evertgym.env.eversion_env import HELD_OUT_SEED_BASE
+
+ALGOS = ("ppo", "sac")
+
+
+def load_config(path: str | Path) -> dict:
+    """Read and validate a training config (errors name the field)."""
+    path = Path(path)
+    try:
+        cfg = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, tomllib.TOMLDecodeError) as e:
+        raise ValueError(f"{path}: cannot read the config: {e}") from None
+    cfg.setdefault("name", path.stem)
+    for key, kind in (("env_id", str), ("algo", str), ("n_timesteps", int)):
+        if not isinstance(cfg.get(key), kind):
+            raise ValueError(f"{path}: {key} is required ({kind.__name__})")
+    if cfg["algo"] not in ALGOS:
+        raise ValueError(f"{path}: algo = {cfg['algo']!r}: allowed {ALGOS}")
+    for key, lo, hi in (("n_envs", 1, 64), ("n_timesteps", 1, 10**9), ("checkpoint_freq", 1, 10**9), ("eval_episodes", 0, 10**6)):
+        v = cfg.get(key, lo)
+        if not (isinstance(v, int) and lo <= v <= hi):
+            raise ValueError(f"{path}: {key} = {v!r} is out of range: allowed integers in [{lo}, {hi}]")
+    return cfg
+
+
+def _make_env_fn(env_id: str, env_kwargs: dict, rank: int, seed: int):
+    def make():
+        import evertgym  # noqa: F401  (registers the envs in the worker)
+        from stable_baselines3.common.monitor import Monitor
+
+        env = Monitor(gym.make(env_id, **env_kwargs))
+        env.reset(seed=seed + rank)
+        return env
+
+    return make
+
+
+def _latest_checkpoint(ckpt_dir: Path) -> tuple[Path, int] | None:
+    best = None
+    for p in ckpt_dir.glob("model_*_steps.zip"):
+        m = re.match(r"model_(\d+)_steps\.zip", p.name)
+        if m and (best is None or int(m.group(1)) > best[1]):
+            best = (p, int(m.group(1)))
+    return best
+
+
+def train(config_path: str | Path, out_dir: str | Path = "runs", resume: bool = False, progress: bool = True) -> dict:
+    """Train (or resume) the config's agent; returns the final evaluation summary."""
+    from stable_baselines3 import PPO, SAC
+    from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback
+    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecNormalize
+
+    cfg = load_config(config_path)
+    run_dir = Path(out_dir) / cfg["name"]
+    ckpt_dir = run_dir / "checkpoints"
+    ckpt_dir.mkdir(parents=True, exist_ok=True)
+    n_envs, seed = cfg.get("n_envs", 1), cfg.get("seed", 0)
+    fns = [_make_env_fn(cfg["env_id"], cfg.get("env_kwargs", {}), i, seed) for i in range(n_envs)]
+    venv = SubprocVecEnv(fns) if n_envs > 1 else DummyVecEnv(fns)
+    algo_cls = {"ppo": PPO, "sac": SAC}[cfg["algo"]]
+    latest = _latest_checkpoint(ckpt_dir) if resume else None
+    if latest is not None:
+        ckpt, steps = latest
+        stats = ckpt_dir / f"model_vecnormalize_{steps}_steps.pkl"
+        if cfg.get("normalize", False):
+            venv = VecNormalize.load(str(stats), venv)
+        model = algo_cls.load(str(ckpt), env=venv, device="cpu", tensorboard_log=str(run_dir / "tb"))
+    else:
+        if resume:
+            raise ValueError(f"--resume: no checkpoint in {ckpt_dir}")
+        if cfg.get("normalize", False):
+            venv = VecNormalize(venv, norm_obs=True, norm_reward=True)
+        hp = dict(cfg.get("hyperparams", {}))
+        policy = hp.pop("policy", "MlpPolicy")
+        model = algo_cls(policy, venv, seed=seed, device="cpu", verbose=0, tensorboard_log=str(run_dir / "tb"), **hp)
+    (run_dir / "config.json").write_text(json.dumps({"config": cfg, "argv": sys.argv}, indent=2, default=str))
+    ckpt_cb = CheckpointCallback(
+        save_freq=max(1, cfg.get("checkpoint_freq", 10000) // n_envs),
+        save_path=str(ckpt_dir),
+        name_prefix="model",
+        save_vecnormalize=cfg.get("normalize", False),
+    )
+    callbacks: list[Any] = [ckpt_cb]
+    if progress:
+        callbacks.append(_TqdmCallback(cfg["n_timesteps"], model.num_timesteps))
+    remaining = cfg["n_timesteps"] - model.num_timesteps
+    if remaining > 0:
+        model.learn(total_timesteps=remaining, callback=CallbackList(callbacks), reset_num_timesteps=False, tb_log_name=cfg["name"])
+    model.save(str(run_dir / "final"))
+    if cfg.get("normalize", False):
+        venv.save(str(run_dir / "final_vecnormalize.pkl"))
+    venv.close()
+    summary = {"num_timesteps": int(model.num_timesteps)}
+    if cfg.get("eval_episodes", 0) > 0:
+        from evertgym.agents.evaluate import evaluate
+
+        rows = evaluate([str(run_dir / "final.zip"), "operator"], cfg["env_id"], cfg["eval_episodes"], env_kwargs=cfg.get("env_kwargs", {}))
+        summary["eval"] = rows
+    (run_dir / "eval.json").write_text(json.dumps(summary, indent=2))
+    return summary
+
+
+class _TqdmCallback:
+    """A tqdm progress bar over env steps (SB3's own needs ``rich``)."""
+
+    def __new__(cls, total: int, start: int):
+        from stable_baselines3.common.callbacks import BaseCallback
+        from tqdm.auto import tqdm
+
+        class _Cb(BaseCallback):
+            def _on_training_start(self) -> None:
+                self.bar = tqdm(total=total, initial=start, unit="step", desc="train")
+
+            def _on_step(self) -> bool:
+                self.bar.update(self.training_env.num_envs)
+                return True
+
+            def _on_training_end(self) -> None:
+                self.bar.close()
+
+        return _Cb()
+
+
+def held_out_seeds(n: int) -> np.ndarray:
+    """Scene seeds for evaluation: never drawn in training."""
+    return HELD_OUT_SEED_BASE + np.arange(n)

@@ -1,0 +1,98 @@
+"""Baselines, SB3 training with checkpoints and resume, evaluation side by side."""
+
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from evertgym.agents import ConstantPressure, OperatorProtocol, make_baseline, pressure_to_action
+from evertgym.agents.evaluate import evaluate
+from evertgym.agents.train import load_config
+from evertgym.env import EversionEnv
+
+
+def test_pressure_action_mapping():
+    assert pressure_to_action(0.0)[0] == pytest.approx(-1.0)
+    assert pressure_to_action(4.0)[0] == pytest.approx(0.0)
+    assert pressure_to_action(8.0)[0] == pytest.approx(1.0)
+
+
+def test_operator_raises_pressure_when_progress_stalls():
+    env = EversionEnv(scene={"family": "straight", "params": {}}, design={"tube": {"length_mm": 600.0}})
+    env.reset(seed=0)
+    op = OperatorProtocol(start_kpa=0.3, step_kpa=0.2, stall_s=0.5)  # below the eversion threshold
+    op.reset(env)
+    info = {"insertion_length_mm": 15.0}
+    cmds = []
+    for _ in range(30):
+        a = op.act(None, info)
+        cmds.append((a[0] + 1) * 4)
+        _, _, _, _, info = env.step(a)
+    assert cmds[0] == pytest.approx(0.3)
+    assert max(cmds) > 0.45  # rose past the threshold...
+    assert info["insertion_length_mm"] > 30.0  # ...and the robot grew
+    assert max(cmds) < 1.5  # and stopped raising once it moved
+
+
+@pytest.mark.parametrize("kwargs, field", [(dict(pressure_kpa=9.0), "pressure_kpa"), (dict(pressure_kpa=float("nan")), "pressure_kpa")])
+def test_baselines_reject_bad_parameters(kwargs, field):
+    with pytest.raises(ValueError, match=field):
+        ConstantPressure(**kwargs)
+    with pytest.raises(ValueError, match="unknown baseline"):
+        make_baseline("teleport")
+
+
+def test_config_validation(tmp_path):
+    p = tmp_path / "bad.toml"
+    p.write_text('env_id = "evertgym/UBend-v0"\nalgo = "dqn"\nn_timesteps = 10\n')
+    with pytest.raises(ValueError, match="algo = 'dqn'"):
+        load_config(p)
+    assert load_config("agents/colon_ppo.toml")["algo"] == "ppo"
+
+
+def test_eval_rows_side_by_side():
+    rows = evaluate(["operator", {"name": "constant", "pressure_kpa": 3.0}], "evertgym/UBend-v0", 2)
+    assert [r["policy"] for r in rows] == ["operator", "constant"]
+    for r in rows:
+        assert set(r) >= {"policy", "episodes", "success_rate", "ci_low", "ci_high", "mean_peak_pressure_kpa", "mean_max_contact_force_n"}
+        assert 0.0 <= r["ci_low"] <= r["success_rate"] <= r["ci_high"] <= 1.0
+
+
+def _tiny_config(tmp_path: Path) -> Path:
+    cfg = tmp_path / "tiny_ppo.toml"
+    cfg.write_text(
+        'env_id = "evertgym/UBend-v0"\nalgo = "ppo"\nseed = 1\nn_envs = 1\nn_timesteps = 512\nnormalize = true\n'
+        "checkpoint_freq = 128\neval_episodes = 0\n[hyperparams]\nn_steps = 64\nbatch_size = 32\nn_epochs = 1\n"
+    )
+    return cfg
+
+
+def test_training_killed_after_a_checkpoint_resumes_and_counts_on(tmp_path):
+    cfg = _tiny_config(tmp_path)
+    out = tmp_path / "runs"
+    ckpt = out / "tiny_ppo" / "checkpoints"
+    cmd = [sys.executable, "-m", "evertgym.cli", "train", str(cfg), "--out", str(out), "--no-progress"]
+    proc = subprocess.Popen(cmd)
+    deadline = time.time() + 240
+    while time.time() < deadline and not list(ckpt.glob("model_*_steps.zip")):
+        time.sleep(0.2)
+    proc.kill()
+    proc.wait()
+    saved = sorted(int(p.name.split("_")[1]) for p in ckpt.glob("model_*_steps.zip"))
+    assert saved, "no checkpoint was written before the kill"
+    assert not (out / "tiny_ppo" / "final.zip").exists()
+    done = subprocess.run(cmd + ["--resume"], capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    summary = json.loads((out / "tiny_ppo" / "eval.json").read_text())
+    assert summary["num_timesteps"] >= 512
+    from stable_baselines3 import PPO
+
+    model = PPO.load(str(out / "tiny_ppo" / "final.zip"), device="cpu")
+    assert model.num_timesteps == summary["num_timesteps"]
+    # the counter continued from the checkpoint: it never restarted below it
+    assert model.num_timesteps >= max(saved)
+    assert list((out / "tiny_ppo" / "tb").rglob("events.out.tfevents*"))  # TensorBoard logs
