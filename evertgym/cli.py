@@ -15,6 +15,8 @@ import math
 import sys
 import time
 
+from pathlib import Path
+
 import numpy as np
 
 
@@ -203,6 +205,137 @@ def cmd_bench_env(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_reproduce_ubend(args: argparse.Namespace) -> int:
+    from evertgym.scoring.paper import plot_ubend, reproduce_ubend
+
+    if not (1 <= args.trials <= 1000):
+        raise CLIError(f"--trials = {args.trials} is out of range: allowed [1, 1000]")
+    result = reproduce_ubend(args.db, trials=args.trials, backend=args.backend, workers=args.workers, progress=not args.json)
+    if args.plot:
+        plot_ubend(result, args.plot)
+    if args.json:
+        print(json.dumps({"rows": result["rows"]}))
+        return 0
+    radii = sorted({r["radius_mm"] for r in result["rows"]}, reverse=True)
+    reds = sorted({r["reduction"] for r in result["rows"]})
+    cell = {(r["reduction"], r["radius_mm"]): r for r in result["rows"]}
+    print("U-bend at 3 kPa: successes / trials per inner radius (mm)")
+    print(f"{'design':>10} " + " ".join(f"{r:>6g}" for r in radii) + f" {'total':>6}")
+    for red in reds:
+        cells = [cell[(red, r)] for r in radii]
+        name = "no bands" if red == 0 else f"3 x {round(red * 100)}%"
+        print(f"{name:>10} " + " ".join(f"{c['successes']:>3}/{c['trials']:<2}" for c in cells) + f" {sum(c['successes'] for c in cells):>6}")
+    print(f"time: {result['wall_s']:.1f} s (store: {args.db})")
+    return 0
+
+
+def cmd_reproduce_colon(args: argparse.Namespace) -> int:
+    from evertgym.scoring.paper import reproduce_colon
+
+    result = reproduce_colon(args.db)
+    if args.plot:
+        from evertgym.plots import plot_pressure_position
+
+        plot_pressure_position(result["rows"], args.plot)
+    if args.json:
+        print(json.dumps({"rows": [{k: r[k] for k in ("reduction", "passed", "stall_position_mm", "peak_pressure_kpa")} for r in result["rows"]]}))
+        return 0
+    print("Colon phantom, operator protocol (2 kPa, +0.5 kPa per 1 s stall, up to 8 kPa)")
+    for r in result["rows"]:
+        name = "no bands" if r["reduction"] == 0 else f"3 x {round(r['reduction'] * 100)}%"
+        stall = "-" if r["stall_position_mm"] is None else f"{r['stall_position_mm']:.0f} mm"
+        print(f"{name:>10}: passed={r['passed']} stall={stall} peak={r['peak_pressure_kpa']:.2f} kPa")
+    return 0
+
+
+def _policy_arg(text: str) -> dict:
+    """``operator``, ``constant:pressure_kpa=3``, a JSON object or a saved model path."""
+    text = text.strip()
+    if text.startswith("{"):
+        try:
+            d = json.loads(text)
+        except json.JSONDecodeError as e:
+            raise CLIError(f"--policy = {text!r}: malformed JSON: {e}") from None
+        return d
+    if text.endswith(".zip"):
+        return {"name": "agent", "path": text}
+    name, _, rest = text.partition(":")
+    d: dict = {"name": name}
+    for kv in filter(None, rest.split(",")):
+        k, _, v = kv.partition("=")
+        try:
+            d[k] = float(v)
+        except ValueError:
+            raise CLIError(f"--policy = {text!r}: {k} must be a number") from None
+    return d
+
+
+def cmd_score(args: argparse.Namespace) -> int:
+    from evertgym.design import TubeDesign
+    from evertgym.scoring.runner import run_trials
+    from evertgym.scoring.stats import summarize
+    from evertgym.scoring.store import ResultStore
+    from evertgym.scoring.sweep import design_from_flags, plot_summary, sweep_specs
+    from evertgym.scoring.trial import run_trial
+
+    designs: dict[str, dict] = {}
+    for path in args.design or []:
+        designs[Path(path).stem] = TubeDesign.load(path).to_dict()
+    if args.bands_mm is not None or not designs:
+        bands = _float_list("--bands-mm", args.bands_mm or "")
+        red = _check("--reduction", args.reduction, 0.0, 0.5999, "(fraction, below 0.6)")
+        name = f"{len(bands)} x {round(red * 100)}%" if bands else "no bands"
+        designs[name] = design_from_flags(args.diameter_mm, args.length_mm, bands, red)
+    try:
+        params = json.loads(args.scene_params)
+    except json.JSONDecodeError as e:
+        raise CLIError(f"--scene-params = {args.scene_params!r}: malformed JSON: {e}") from None
+    if not (1 <= args.scenes <= 100000 and 1 <= args.trials <= 10000):
+        raise CLIError("--scenes and --trials must be positive (at most 100000 and 10000)")
+    episode = {"max_s": args.max_s, "band_offset_mm": [-args.band_jitter_mm, args.band_jitter_mm], "entry_offset_mm": [-5.0, 5.0]}
+    specs = sweep_specs(designs, {"family": args.scene, "params": params}, args.scenes, args.trials, _policy_arg(args.policy), episode)
+    Path(args.db).parent.mkdir(parents=True, exist_ok=True)
+    with ResultStore(args.db) as store:
+        kw = {"address": args.address} if args.address else {"workers": args.workers}
+        records = run_trials(specs, run_trial, store, backend=args.backend, progress=not args.json, **kw)
+    rows = summarize(records, by="design_name")
+    if args.plot:
+        plot_summary(rows, args.plot)
+    if args.json:
+        print(json.dumps({"rows": rows}, default=float))
+        return 0
+    print(f"{'design':>14} {'n':>5} {'success':>8} {'95% CI':>15} {'time_s':>7} {'peak_kpa':>9} {'max_force_n':>11}   (medians)")
+    for r in rows:
+        med = lambda k: "-" if r.get(k) is None else f"{r[k]:.2f}"  # noqa: E731
+        ci = f"[{r['success_ci_lo']:.2f}, {r['success_ci_hi']:.2f}]"
+        print(f"{r['design_name']:>14} {r['n']:>5} {r['success_rate']:>8.2f} {ci:>15} {med('median_time_s'):>7} {med('median_peak_pressure_kpa'):>9} {med('median_max_contact_force_n'):>11}")
+    print(f"store: {args.db}")
+    return 0
+
+
+def cmd_optimize(args: argparse.Namespace) -> int:
+    from evertgym.scoring.optimize import optimize_bands
+
+    try:
+        params = json.loads(args.scene_params)
+    except json.JSONDecodeError as e:
+        raise CLIError(f"--scene-params = {args.scene_params!r}: malformed JSON: {e}") from None
+    Path(args.study).parent.mkdir(parents=True, exist_ok=True)
+    out = optimize_bands(
+        {"family": args.scene, "params": params}, args.study, args.db, n_trials=args.trials, n_scenes=args.scenes,
+        trials_per_scene=args.trials_per_scene, held_out_scenes=args.held_out, budget_kpa=args.budget_kpa,
+        policy=args.policy, backend=args.backend,
+    )
+    if args.json:
+        print(json.dumps(out, default=float))
+        return 0
+    print(f"best after {out['trials']} designs: {out['best_params']}")
+    print("held-out scenes:")
+    for r in out["held_out"]:
+        print(f"  {r['design_name']:>24}: success {r['success_rate']:.2f} [{r['success_ci_lo']:.2f}, {r['success_ci_hi']:.2f}] (n={r['n']})")
+    return 0
+
+
 def cmd_train(args: argparse.Namespace) -> int:
     from evertgym.agents.train import train
 
@@ -249,6 +382,21 @@ def build_parser() -> argparse.ArgumentParser:
     rs.add_argument("--no-sim", action="store_true", help="skip the pymunk simulator's columns")
     rs.set_defaults(func=cmd_reproduce_stiffness)
 
+    ru = rep_sub.add_parser("ubend", help="validation experiment: U-bend success rates (Fig. 4d)")
+    ru.add_argument("--json", action="store_true")
+    ru.add_argument("--trials", type=int, default=12, help="trials per design and radius")
+    ru.add_argument("--db", default="runs/reproduce_ubend.sqlite", help="result store (resumable)")
+    ru.add_argument("--backend", choices=["process", "serial", "dask"], default="process")
+    ru.add_argument("--workers", type=int, default=None)
+    ru.add_argument("--plot", default=None, help="write the success-rate plot (PNG) here")
+    ru.set_defaults(func=cmd_reproduce_ubend)
+
+    rc = rep_sub.add_parser("colon", help="colon phantom case study (Fig. 5d)")
+    rc.add_argument("--json", action="store_true")
+    rc.add_argument("--db", default="runs/reproduce_colon.sqlite")
+    rc.add_argument("--plot", default=None, help="write the pressure-position plot (PNG) here")
+    rc.set_defaults(func=cmd_reproduce_colon)
+
     rv = rep_sub.add_parser("eversion", help="Exp 4: minimum eversion pressure per band reduction, simulated")
     rv.add_argument("--json", action="store_true", help="print one JSON object")
     rv.add_argument("--step-kpa", type=float, default=0.01, help="pressure step of the protocol (kPa)")
@@ -265,6 +413,42 @@ def build_parser() -> argparse.ArgumentParser:
     st.add_argument("--json", action="store_true")
     st.add_argument("--no-sim", action="store_true", help="skip the pymunk simulator's figure")
     st.set_defaults(func=cmd_stiffness)
+    sc = sub.add_parser("score", help="score band designs on a scene distribution (resumable SQLite store)")
+    sc.add_argument("--design", action="append", help="a design file (TOML/JSON); repeatable")
+    sc.add_argument("--bands-mm", default=None, help="band positions from the base, e.g. 200,250,300")
+    sc.add_argument("--reduction", type=float, default=0.1)
+    sc.add_argument("--diameter-mm", type=float, default=40.0)
+    sc.add_argument("--length-mm", type=float, default=900.0)
+    sc.add_argument("--scene", default="ubend", help="scene family")
+    sc.add_argument("--scene-params", default="{}", help='JSON, e.g. \'{"radius_mm": 30}\'')
+    sc.add_argument("--scenes", type=int, default=5, help="number of scene seeds")
+    sc.add_argument("--trials", type=int, default=4, help="trials per scene")
+    sc.add_argument("--policy", default="constant:pressure_kpa=3", help="constant:pressure_kpa=3, operator, tuned, a .zip, or JSON")
+    sc.add_argument("--max-s", type=float, default=20.0, help="time limit per trial (s)")
+    sc.add_argument("--band-jitter-mm", type=float, default=25.0, help="band position randomisation (+/- mm)")
+    sc.add_argument("--db", default="runs/score.sqlite")
+    sc.add_argument("--backend", choices=["process", "serial", "dask"], default="process")
+    sc.add_argument("--workers", type=int, default=None)
+    sc.add_argument("--address", default=None, help="Dask scheduler address (with --backend dask)")
+    sc.add_argument("--plot", default=None)
+    sc.add_argument("--json", action="store_true")
+    sc.set_defaults(func=cmd_score)
+
+    op = sub.add_parser("optimize", help="search band designs (optuna) and compare the best with the paper's on held-out scenes")
+    op.add_argument("--scene", default="ubend")
+    op.add_argument("--scene-params", default='{"radius_mm": 30}')
+    op.add_argument("--trials", type=int, default=20, help="designs to try")
+    op.add_argument("--scenes", type=int, default=4, help="training scene seeds per design")
+    op.add_argument("--trials-per-scene", type=int, default=2)
+    op.add_argument("--held-out", type=int, default=8, help="held-out scene seeds for the final comparison")
+    op.add_argument("--budget-kpa", type=float, default=3.0, help="pressure budget")
+    op.add_argument("--policy", choices=["constant", "operator"], default="constant")
+    op.add_argument("--study", default="runs/optimize_study.sqlite")
+    op.add_argument("--db", default="runs/optimize_trials.sqlite")
+    op.add_argument("--backend", choices=["process", "serial", "dask"], default="process")
+    op.add_argument("--json", action="store_true")
+    op.set_defaults(func=cmd_optimize)
+
     tr = sub.add_parser("train", help="train a pressure policy from a config in agents/")
     tr.add_argument("config")
     tr.add_argument("--out", default="runs", help="runs folder (default: runs/)")

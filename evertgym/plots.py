@@ -51,3 +51,25 @@ def plot_stiffness_curves(curves: list[dict], path: str | Path) -> Path:
     fig.savefig(path, dpi=130)
     plt.close(fig)
     return path
+
+
+def plot_pressure_position(rows: list[dict], path: str | Path) -> Path:
+    """Pressure against insertion length per design, like the paper's Fig. 5d."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(6.4, 4.0))
+    for r in rows:
+        pp = np.asarray(r["pressure_position"], dtype=float)
+        name = "no bands" if r["reduction"] == 0 else f"3 x {round(r['reduction'] * 100)}% bands"
+        if len(pp):
+            ax.plot(pp[:, 0], pp[:, 1], "-o", ms=2.5, label=f"{name} ({'passed' if r['passed'] else 'stalled'})")
+    ax.axhline(8.0, color="r", lw=0.8, ls="--", label="8 kPa limit")
+    ax.set_xlabel("insertion length (mm)")
+    ax.set_ylabel("pressure (kPa)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path

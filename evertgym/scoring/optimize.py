@@ -1,0 +1,82 @@
+"""Band-design search: optuna (TPE) over band count, spacing, reduction and offset.
+
+The objective is the success rate of a design on training scenes of a family (scene
+seeds ``0..n_scenes-1``) under a pressure budget (constant pressure at the budget, or the
+operator protocol capped at it); ties favour fewer bands.  The study lives in an SQLite
+file (optuna's RDB storage) and every trial's episodes in the scoring store, so a killed
+search resumes.  The best design is then scored against the paper's design (3 x 10%
+bands 50 mm apart) on held-out scenes (seeds from 10000).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from evertgym.scoring.runner import run_trials
+from evertgym.scoring.stats import summarize
+from evertgym.scoring.store import ResultStore
+from evertgym.scoring.sweep import sweep_specs
+from evertgym.scoring.trial import run_trial
+
+HELD_OUT_FIRST_SEED = 10_000
+
+
+def band_design(n_bands: int, spacing_mm: float, reduction: float, last_band_mm: float, diameter_mm: float, length_mm: float) -> dict:
+    """Bands ``spacing_mm`` apart ending at ``last_band_mm`` from the base."""
+    positions = [last_band_mm - k * spacing_mm for k in range(n_bands)]
+    bands = [{"position_mm": p, "reduction": reduction} for p in sorted(positions) if p > 10.0]
+    return {"tube": {"diameter_mm": diameter_mm, "wall_thickness_mm": 0.05, "length_mm": length_mm}, "bands": bands}
+
+
+def optimize_bands(
+    scene: dict,
+    study_path: str | Path,
+    store_path: str | Path,
+    n_trials: int = 20,
+    n_scenes: int = 4,
+    trials_per_scene: int = 2,
+    held_out_scenes: int = 8,
+    budget_kpa: float = 3.0,
+    policy: str = "constant",
+    diameter_mm: float = 40.0,
+    length_mm: float = 900.0,
+    backend: str = "process",
+    seed: int = 0,
+) -> dict:
+    import optuna
+
+    if policy not in ("constant", "operator"):
+        raise ValueError(f"policy = {policy!r}: allowed 'constant' or 'operator'")
+    if not (0 < budget_kpa <= 8.0):
+        raise ValueError(f"budget_kpa = {budget_kpa!r} is out of range: allowed (0, 8] kPa")
+    pol = {"name": "constant", "pressure_kpa": budget_kpa} if policy == "constant" else {"name": "operator", "max_kpa": budget_kpa}
+    episode = {"max_s": 20.0, "band_offset_mm": [-25.0, 25.0], "entry_offset_mm": [-5.0, 5.0]}
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    study = optuna.create_study(
+        study_name="bands", storage=f"sqlite:///{Path(study_path).resolve()}", load_if_exists=True,
+        direction="maximize", sampler=optuna.samplers.TPESampler(seed=seed),
+    )
+
+    def score(designs: dict[str, dict], first_seed: int, n: int) -> list[dict]:
+        specs = sweep_specs(designs, scene, n, trials_per_scene, pol, episode, first_scene_seed=first_seed)
+        with ResultStore(store_path) as store:
+            records = run_trials(specs, run_trial, store, backend=backend, progress=False)
+        return summarize(records, by="design_name")
+
+    def objective(trial) -> float:
+        n = trial.suggest_int("n_bands", 0, 6)
+        design = band_design(
+            n, trial.suggest_float("spacing_mm", 20.0, 100.0), trial.suggest_float("reduction", 0.05, 0.5),
+            trial.suggest_float("last_band_mm", 150.0, 500.0), diameter_mm, length_mm,
+        )
+        rate = score({f"candidate {trial.number}": design}, 0, n_scenes)[0]["success_rate"]
+        return rate - 0.001 * n
+
+    remaining = n_trials - len([t for t in study.trials if t.state.name == "COMPLETE"])
+    if remaining > 0:
+        study.optimize(objective, n_trials=remaining)
+    best = study.best_params
+    best_design = band_design(best["n_bands"], best["spacing_mm"], best["reduction"], best["last_band_mm"], diameter_mm, length_mm)
+    paper = band_design(3, 50.0, 0.1, 300.0, diameter_mm, length_mm)
+    rows = score({"best": best_design, "paper 3 x 10% / 50 mm": paper}, HELD_OUT_FIRST_SEED, held_out_scenes)
+    return {"best_params": best, "best_design": best_design, "held_out": rows, "trials": len(study.trials)}

@@ -1,0 +1,150 @@
+"""The paper's validation experiment (U-bends, Fig. 4d) and colon case study (Fig. 5d) as scored trials.
+
+U-bend protocol (paper, Sec. IV-E): the 40 mm robot grows at a constant 3 kPa through a
+55 mm pipe into a 180-degree U-bend of inner radius 40 down to 20 mm in 2.5 mm steps;
+no bands, or 3 bands of 10, 20 or 30% 50 mm apart located just before the bend (the
+last at the bend's start, 300 mm from the base); 12 trials per design and radius with
+the bands' position against the bend randomised (uniform +/- 25 mm) and the robot's start
+across the pipe randomised (+/- 5 mm).  Success: the tip passes the goal 60 mm into the
+exit leg within 20 s.
+
+Colon protocol (Sec. V): the 20 mm, 800 mm robot in the default phantom; the operator
+raises the pressure by 0.5 kPa whenever progress stalls for 1 s, from 2 kPa up to 8 kPa;
+no bands against 3 bands of 10% 50 mm apart upstream of the bend (250, 300, 350 mm).
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+from evertgym.scoring.spec import TrialSpec
+
+UBEND_RADII_MM = (40.0, 37.5, 35.0, 32.5, 30.0, 27.5, 25.0, 22.5, 20.0)
+UBEND_REDUCTIONS = (0.0, 0.1, 0.2, 0.3)
+UBEND_BANDS_MM = (200.0, 250.0, 300.0)
+COLON_BANDS_MM = (250.0, 300.0, 350.0)
+
+
+def ubend_design(reduction: float) -> dict:
+    bands = [{"position_mm": p, "reduction": reduction} for p in UBEND_BANDS_MM] if reduction > 0 else []
+    return {"tube": {"diameter_mm": 40.0, "wall_thickness_mm": 0.05, "length_mm": 900.0}, "bands": bands}
+
+
+def ubend_specs(trials: int = 12, radii=UBEND_RADII_MM, reductions=UBEND_REDUCTIONS, pressure_kpa: float = 3.0) -> list[TrialSpec]:
+    specs = []
+    for red in reductions:
+        for r in radii:
+            for i in range(trials):
+                specs.append(
+                    TrialSpec(
+                        design=ubend_design(red),
+                        design_name="no bands" if red == 0 else f"3 x {round(red * 100)}%",
+                        scene={
+                            "family": "ubend",
+                            "params": {"radius_mm": float(r)},
+                            "seed": 0,
+                            "episode": {"max_s": 20.0, "band_offset_mm": [-25.0, 25.0], "entry_offset_mm": [-5.0, 5.0]},
+                        },
+                        policy={"name": "constant", "pressure_kpa": float(pressure_kpa)},
+                        seed=i,
+                        index=i,
+                        group=f"{red:.1f}/{r:g}",
+                    )
+                )
+    return specs
+
+
+def colon_specs() -> list[TrialSpec]:
+    specs = []
+    for red in (0.0, 0.1):
+        bands = [{"position_mm": p, "reduction": red} for p in COLON_BANDS_MM] if red > 0 else []
+        specs.append(
+            TrialSpec(
+                design={"tube": {"diameter_mm": 20.0, "wall_thickness_mm": 0.05, "length_mm": 800.0}, "bands": bands},
+                design_name="no bands" if red == 0 else "3 x 10%",
+                scene={"family": "colon", "params": {}, "seed": 0, "episode": {"max_s": 40.0}},
+                policy={"name": "operator", "start_kpa": 2.0, "step_kpa": 0.5, "stall_s": 1.0, "max_kpa": 8.0},
+                seed=0,
+                index=0,
+                group=f"{red:.1f}",
+            )
+        )
+    return specs
+
+
+def _run(specs, store_path, backend, workers, progress):
+    from evertgym.scoring.runner import run_trials
+    from evertgym.scoring.store import ResultStore
+    from evertgym.scoring.trial import run_trial
+
+    with ResultStore(store_path) as store:
+        return run_trials(specs, run_trial, store, backend=backend, workers=workers, progress=progress)
+
+
+def reproduce_ubend(store_path: str | Path, trials: int = 12, backend: str = "process", workers: int | None = None, progress: bool = True) -> dict:
+    """Run (or resume) the U-bend table; the ``--json`` structure of ``evertgym reproduce ubend``."""
+    t0 = time.perf_counter()
+    records = _run(ubend_specs(trials), store_path, backend, workers, progress)
+    counts: dict[tuple[float, float], list[int]] = {}
+    for rec in records:
+        red = rec.spec.design["bands"][0]["reduction"] if rec.spec.design["bands"] else 0.0
+        r = rec.spec.scene["params"]["radius_mm"]
+        c = counts.setdefault((red, r), [0, 0])
+        c[0] += 1
+        c[1] += int(rec.result["success"])
+    rows = [{"reduction": red, "radius_mm": r, "trials": n, "successes": k} for (red, r), (n, k) in counts.items()]
+    rows.sort(key=lambda x: (x["reduction"], -x["radius_mm"]))
+    return {"rows": rows, "wall_s": time.perf_counter() - t0}
+
+
+def reproduce_colon(store_path: str | Path, backend: str = "serial", progress: bool = False) -> dict:
+    """Run (or resume) the colon case study; the ``--json`` structure of ``evertgym reproduce colon``."""
+    records = _run(colon_specs(), store_path, backend, None, progress)
+    rows = []
+    for rec in records:
+        bands = rec.spec.design["bands"]
+        rows.append(
+            {
+                "reduction": bands[0]["reduction"] if bands else 0.0,
+                "passed": bool(rec.result["success"]),
+                "stall_position_mm": rec.result["stall_position_mm"],
+                "peak_pressure_kpa": rec.result["peak_pressure_kpa"],
+                "pressure_position": rec.result.get("pressure_position", []),
+            }
+        )
+    return {"rows": rows}
+
+
+def plot_ubend(result: dict, path: str | Path) -> Path:
+    """Success rate against bend radius per design, like the paper's Fig. 4d."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from evertgym.model.params import load_measurements
+
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    for red, colour in zip(UBEND_REDUCTIONS, ("k", "tab:blue", "tab:orange", "tab:green")):
+        rows = sorted((r for r in result["rows"] if r["reduction"] == red), key=lambda r: r["radius_mm"])
+        if rows:
+            ax.plot([r["radius_mm"] for r in rows], [r["successes"] / r["trials"] for r in rows], "o-", color=colour,
+                    label="sim, no bands" if red == 0 else f"sim, 3 x {round(red * 100)}%")
+    paper = load_measurements()["u_bend_validation"]["success_rate"]
+    nb = paper["no_bands"]
+    ax.plot([37.5, 35.0, 32.5, 30.0, 27.5, 25.0, 22.5, 20.0], [nb["37.5"], nb["35.0"], nb["32.5"]] + [nb["below_32.5"]] * 5, "k--", alpha=0.5, label="paper, no bands")
+    ax.plot([25.0, 20.0], [paper["bands_10pct"]["25.0"], paper["bands_10pct"]["20.0"]], "s", color="tab:blue", alpha=0.6, label="paper, 10% (25, 20 mm)")
+    ax.set_xlabel("U-bend inner radius (mm)")
+    ax.set_ylabel("success rate")
+    ax.invert_xaxis()
+    ax.set_ylim(-0.05, 1.05)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    ax.set_title("U-bend at 3 kPa, 12 trials per point")
+    fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path

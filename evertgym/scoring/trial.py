@@ -1,0 +1,70 @@
+"""One scored trial: a design grows through a scene under a pressure policy.
+
+``TrialSpec.scene`` is a scene spec (``family``, ``params``, ``seed``) plus an optional
+``episode`` table: ``max_s`` (time limit, default 20 s), ``control_hz`` (10),
+``band_offset_mm`` and ``entry_offset_mm`` (``[lo, hi]`` ranges drawn per trial from the
+trial's seed: the paper's randomisation of band position against the bend and of the
+robot's start).  ``TrialSpec.policy`` names a policy: ``{"name": "constant",
+"pressure_kpa": 3}``, ``{"name": "operator", ...}``, ``{"name": "tuned"}`` or
+``{"name": "agent", "path": "agents/colon_ppo.zip"}``.
+
+A trial ends at the goal (success), at full length, at the time limit, or early once
+the robot has been stalled for ``give_up_s`` with the policy at its highest pressure
+(the outcome can no longer change).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from evertgym.env import EversionEnv
+from evertgym.scoring.spec import TrialSpec
+
+GIVE_UP_S = 2.0
+
+
+def make_trial_env(spec: TrialSpec) -> EversionEnv:
+    scene = dict(spec.scene)
+    episode = dict(scene.pop("episode", {}))
+    return EversionEnv(
+        scene=scene,
+        design=spec.design,
+        band_offset_mm=tuple(episode.get("band_offset_mm", (0.0, 0.0))),
+        entry_offset_mm=tuple(episode.get("entry_offset_mm", (0.0, 0.0))),
+        control_hz=float(episode.get("control_hz", 10.0)),
+        max_episode_s=float(episode.get("max_s", 20.0)),
+    )
+
+
+def run_trial(spec: TrialSpec) -> dict:
+    """Run one trial; the result has the keys of ``REQUIRED_RESULT_KEYS`` and more."""
+    from evertgym.agents.policies import make_policy
+
+    env = make_trial_env(spec)
+    policy = make_policy(dict(spec.policy))
+    obs, info = env.reset(seed=int(spec.seed))
+    policy.reset(env)
+    stalled_at_max = 0.0
+    pressures = []
+    while True:
+        action = policy.act(obs, info)
+        obs, _, term, trunc, info = env.step(action)
+        sim = env.sim
+        pressures.append((sim.length * 1e3, sim.pressure / 1e3))
+        at_max = sim.regulator.command >= getattr(policy, "max_command_pa", 8000.0) - 1e-6 or policy.name == "constant"
+        stalled_at_max = stalled_at_max + env.control_dt if (sim.stalled and at_max) else 0.0
+        if term or trunc or stalled_at_max >= GIVE_UP_S:
+            break
+    stall_events = [e for e in env.sim.events if e.kind == "stall"]
+    return {
+        "success": bool(info["success"]),
+        "time_s": float(info["time_s"]),
+        "peak_pressure_kpa": float(info["peak_pressure_kpa"]),
+        "max_contact_force_n": float(info["max_contact_force_n"]),
+        "stall_position_mm": None if info["success"] else (stall_events[-1].insertion_mm if stall_events else float(info["insertion_length_mm"])),
+        "insertion_length_mm": float(info["insertion_length_mm"]),
+        "tip_arclength_mm": float(info["tip_arclength_mm"]),
+        "stall_count": int(info["stall_count"]),
+        "pressure_position": [[round(x, 1), round(p, 3)] for x, p in pressures[:: max(1, len(pressures) // 60)]],
+        "scene_params": {k: v for k, v in env.scene.params.items() if isinstance(v, (int, float, str, bool))},
+    }

@@ -1,0 +1,99 @@
+"""The paper's experiments as scored trials, and the score command."""
+
+import json
+
+import pytest
+
+from evertgym.cli import main
+from evertgym.scoring.paper import colon_specs, ubend_specs
+from evertgym.scoring.spec import TrialSpec
+from evertgym.scoring.trial import run_trial
+
+
+def test_ubend_specs_follow_the_protocol():
+    specs = ubend_specs()
+    assert len(specs) == 4 * 9 * 12
+    radii = sorted({s.scene["params"]["radius_mm"] for s in specs})
+    assert radii == [20.0, 22.5, 25.0, 27.5, 30.0, 32.5, 35.0, 37.5, 40.0]
+    banded = [s for s in specs if s.design["bands"]]
+    assert {b["position_mm"] for s in banded for b in s.design["bands"]} == {200.0, 250.0, 300.0}
+    assert all(s.policy == {"name": "constant", "pressure_kpa": 3.0} for s in specs)
+    assert len({s.key for s in specs}) == len(specs)
+
+
+def test_trial_is_deterministic_and_randomised_by_seed():
+    spec = ubend_specs(trials=2, radii=(32.5,), reductions=(0.1,))
+    a, b = run_trial(spec[0]), run_trial(spec[0])
+    assert a == b
+    assert set(a) >= {"success", "time_s", "peak_pressure_kpa", "max_contact_force_n", "stall_position_mm"}
+    assert a["peak_pressure_kpa"] == pytest.approx(3.0, abs=1e-6)
+
+
+def test_no_band_robot_passes_wide_and_fails_tight_ubends():
+    wide = ubend_specs(trials=1, radii=(40.0,), reductions=(0.0,))[0]
+    tight = ubend_specs(trials=1, radii=(20.0,), reductions=(0.0,))[0]
+    assert run_trial(wide)["success"]
+    res = run_trial(tight)
+    assert not res["success"] and res["stall_position_mm"] is not None
+
+
+def test_reproduce_ubend_json_contract(tmp_path, capsys):
+    assert main(["reproduce", "ubend", "--json", "--trials", "1", "--db", str(tmp_path / "u.sqlite"), "--backend", "serial"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert len(out["rows"]) == 36
+    for r in out["rows"]:
+        assert set(r) == {"reduction", "radius_mm", "trials", "successes"}
+        assert r["trials"] == 1 and r["successes"] in (0, 1)
+    assert {r["reduction"] for r in out["rows"]} == {0.0, 0.1, 0.2, 0.3}
+
+
+def test_colon_specs_and_json_contract(tmp_path, capsys):
+    specs = colon_specs()
+    assert [s.design_name for s in specs] == ["no bands", "3 x 10%"]
+    assert main(["reproduce", "colon", "--json", "--db", str(tmp_path / "c.sqlite")]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert [r["reduction"] for r in out["rows"]] == [0.0, 0.1]
+    for r in out["rows"]:
+        assert set(r) == {"reduction", "passed", "stall_position_mm", "peak_pressure_kpa"}
+        assert r["peak_pressure_kpa"] <= 8.0 + 1e-9
+
+
+def test_score_resumes_from_its_store(tmp_path, capsys):
+    db = str(tmp_path / "s.sqlite")
+    argv = ["score", "--bands-mm", "200,250", "--scene", "ubend", "--scene-params", '{"radius_mm": 40}', "--scenes", "1",
+            "--trials", "2", "--db", db, "--backend", "serial", "--json"]
+    assert main(argv) == 0
+    first = json.loads(capsys.readouterr().out)
+    assert main(argv) == 0
+    second = json.loads(capsys.readouterr().out)
+    assert first == second and first["rows"][0]["n"] == 2
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["--reduction", "0.7", "--bands-mm", "200"], "--reduction = 0.7 is out of range"),
+        (["--scene-params", "{radius"], "malformed JSON"),
+        (["--scene", "ubend", "--scene-params", '{"radius_mm": 10}'], "radius_mm = 10 is out of range"),
+        (["--policy", "constant:pressure_kpa=high"], "pressure_kpa must be a number"),
+    ],
+)
+def test_score_rejects_bad_input(tmp_path, capsys, argv, message):
+    assert main(["score", "--db", str(tmp_path / "x.sqlite"), "--backend", "serial", *argv]) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_optimize_resumes_its_study_and_compares_with_the_paper_design(tmp_path):
+    from evertgym.scoring.optimize import band_design, optimize_bands
+
+    d = band_design(3, 50.0, 0.1, 300.0, 40.0, 900.0)
+    assert [b["position_mm"] for b in d["bands"]] == [200.0, 250.0, 300.0]
+    kw = dict(scene={"family": "ubend", "params": {"radius_mm": 40.0}}, study_path=tmp_path / "s.sqlite", store_path=tmp_path / "t.sqlite",
+              n_scenes=1, trials_per_scene=1, held_out_scenes=1, backend="serial")
+    first = optimize_bands(n_trials=2, **kw)
+    again = optimize_bands(n_trials=3, **kw)  # resumes: one more design, not three
+    assert first["trials"] == 2 and again["trials"] == 3
+    names = [r["design_name"] for r in again["held_out"]]
+    assert set(names) == {"best", "paper 3 x 10% / 50 mm"}
+    with pytest.raises(ValueError, match="budget_kpa"):
+        optimize_bands(n_trials=1, budget_kpa=9.0, **kw)
