@@ -95,6 +95,9 @@ def train(config_path: str | Path, out_dir: str | Path = "runs", resume: bool = 
     from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecNormalize
 
+    import torch
+
+    torch.set_num_threads(1)  # small MLPs: threads only fight the env workers for the cores
     cfg = load_config(config_path)
     run_dir = Path(out_dir) / cfg["name"]
     ckpt_dir = run_dir / "checkpoints"
