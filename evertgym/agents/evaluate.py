@@ -29,11 +29,13 @@ def evaluate(policies: list[str | dict], env_id: str, episodes: int, env_kwargs:
 
     if not (isinstance(episodes, int) and episodes >= 1):
         raise ValueError(f"episodes = {episodes!r} is out of range: allowed integers >= 1")
-    env = gym.make(env_id, **(env_kwargs or {}))
     rows = []
     for desc in policies:
         policy = make_policy(desc)
+        # observation flags a trained model needs; they do not change the physics
+        env = gym.make(env_id, **{**(env_kwargs or {}), **getattr(policy, "env_kwargs", {})})
         infos = [run_episode(env, policy, seed_base + i) for i in range(episodes)]
+        env.close()
         wins = [i for i in infos if i["success"]]
         lo, hi = wilson_interval(len(wins), episodes)
         rows.append(
@@ -48,5 +50,4 @@ def evaluate(policies: list[str | dict], env_id: str, episodes: int, env_kwargs:
                 "mean_max_contact_force_n": float(np.mean([i["max_contact_force_n"] for i in infos])),
             }
         )
-    env.close()
     return rows

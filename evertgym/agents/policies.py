@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -30,6 +31,9 @@ class SB3Policy(Policy):
                 last_error = e
         else:
             raise ValueError(f"policy path = {str(path)!r} is not a PPO or SAC model: {last_error}")
+        meta = path.with_name(path.stem + "_env.json")
+        #: env kwargs the model was trained with (observation flags); evaluation applies them
+        self.env_kwargs = json.loads(meta.read_text())["env_kwargs"] if meta.exists() else {}
         stats = path.with_name(path.stem + "_vecnormalize.pkl")
         self.obs_rms = None
         if stats.exists():

@@ -18,8 +18,8 @@ def rollout_gif(policy_desc: str, env_id: str, out: str | Path, seed: int = 0, e
     out = Path(out)
     if out.suffix.lower() != ".gif":
         raise ValueError(f"--out = {str(out)!r}: expected a .gif file")
-    env = gym.make(env_id, render_mode="rgb_array")
     policy = make_policy(policy_desc)
+    env = gym.make(env_id, render_mode="rgb_array", **getattr(policy, "env_kwargs", {}))
     obs, info = env.reset(seed=seed)
     policy.reset(env)
     frames = [env.render()]

@@ -135,6 +135,8 @@ def train(config_path: str | Path, out_dir: str | Path = "runs", resume: bool = 
     if remaining > 0:
         model.learn(total_timesteps=remaining, callback=CallbackList(callbacks), reset_num_timesteps=False, tb_log_name=cfg["name"])
     model.save(str(run_dir / "final"))
+    # the observation options the policy was trained with travel with it
+    (run_dir / "final_env.json").write_text(json.dumps({"env_id": cfg["env_id"], "env_kwargs": cfg.get("env_kwargs", {})}, indent=2))
     if cfg.get("normalize", False):
         venv.save(str(run_dir / "final_vecnormalize.pkl"))
     venv.close()
