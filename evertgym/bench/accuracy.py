@@ -98,7 +98,8 @@ class SweepSetting:
 
 #: The finest setting: 5 mm segments, 1 ms steps, 20 solver passes, and an active window
 #: longer than the robot (nothing is frozen).
-REFERENCE = SweepSetting("reference (finest)", {"segment_length_m": 0.005, "dt_s": 0.001, "iterations": 20, "active_length_m": 1.0})
+REFERENCE = SweepSetting("reference (finest)",
+                         {"segment_length_m": 0.005, "dt_s": 0.001, "iterations": 20, "active_length_m": 1.0})
 
 
 def default_settings(quick: bool = False) -> list[SweepSetting]:
@@ -332,7 +333,8 @@ def skip_costs(quick: bool = False) -> list[dict]:
         ("active set", f"active_length_m = 100 (no freezing), {length:g} m robot",
          lambda: growth_cost(replace(default, active_length_m=100.0), long_scene, TubeDesign(length_m=length), 3000.0, grow_s)),
         ("walls", "colon, compliant walls (default)",
-         lambda: growth_cost(default, {"family": "colon", "params": {}}, TubeDesign(diameter_m=0.02, length_m=0.6), 4000.0, colon_s)),
+         lambda: growth_cost(default, {"family": "colon", "params": {}},
+                             TubeDesign(diameter_m=0.02, length_m=0.6), 4000.0, colon_s)),
         ("walls", "colon, compliant: false (static walls)",
          lambda: growth_cost(default, {"family": "colon", "params": {"compliant": False}},
                              TubeDesign(diameter_m=0.02, length_m=0.6), 4000.0, colon_s)),

@@ -83,6 +83,10 @@ def style_wall_shape(shape: pymunk.Shape) -> pymunk.Shape:
     return shape
 
 
+#: Fraction of a tether's overshoot left after 1 s (about 24% corrected per 2 ms step).
+TETHER_ERROR_BIAS = 1e-60
+
+
 @dataclass(frozen=True)
 class WallMechanics:
     """Per-unit-length wall mechanics (SI) of a compliant tube of mean lumen ``lumen_m``."""
@@ -258,6 +262,9 @@ class WallNetwork:
                     for j in range(len(pts) - 1)]
             tether = pymunk.SlideJoint(space.static_body, body, tuple(self.position[i]), (0.0, 0.0), 0.0,
                                        self.mechanics.max_travel_m)
+            # correct an overshoot within a few steps (the default, 10% per 1/60 s, lets a
+            # loaded piece pass its travel by millimetres and creep back over seconds)
+            tether.error_bias = TETHER_ERROR_BIAS
             space.add(body, *segs, tether)
             bodies.append(body)
             shapes += segs

@@ -139,7 +139,13 @@ def offset_walls(path: Path, width: np.ndarray) -> tuple[np.ndarray, np.ndarray]
 def polyline_normals(poly: np.ndarray) -> np.ndarray:
     """Unit left normals of a polyline at its vertices (central differences)."""
     d = np.gradient(poly, axis=0)
-    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    n = np.linalg.norm(d, axis=1, keepdims=True)
+    good = n[:, 0] > 1e-12
+    if not np.all(good):  # coincident vertices (a vanishing piece): take the nearest good tangent
+        idx = np.flatnonzero(good)
+        nearest = idx[np.clip(np.searchsorted(idx, np.arange(len(d))), 0, len(idx) - 1)]
+        d, n = d[nearest], n[nearest]
+    d = d / n
     return np.column_stack([-d[:, 1], d[:, 0]])
 
 

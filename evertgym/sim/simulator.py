@@ -160,9 +160,14 @@ class EversionSim:
 
     # ---- construction ----------------------------------------------------------
     def _radius_between(self, a: float, b: float) -> float:
+        """Collision radius of material [a, b]: its envelope (largest radius), so no part of
+        the tube can sink into a wall; a segment wholly inside a band strip gets the band's."""
         s, r = self._radius_fine
         m = (s >= a - 1e-12) & (s <= b + 1e-12)
-        return float(np.min(r[m])) if np.any(m) else float(np.interp(0.5 * (a + b), s, r))
+        return float(np.max(r[m])) if np.any(m) else float(np.interp(0.5 * (a + b), s, r))
+
+    def _near_band(self, s: float) -> bool:
+        return any(z.start_m - 2 * self.ds <= s <= z.end_m + 2 * self.ds for z in self._ref_section.zones)
 
     def _mass_props(self, j: int) -> tuple[float, float]:
         """Scaled (mass, inertia) for the stiffest state of the adjacent joints (8 kPa)."""
@@ -180,8 +185,8 @@ class EversionSim:
         # the centre of gravity first: setting it later moves the body origin.  It stays
         # fixed while the tip segment lengthens for the same reason.
         body.center_of_gravity = (self.ds / 2, 0.0)
+        body.angle = angle  # before the position: turning keeps the centre of gravity fixed
         body.position = tuple(origin)
-        body.angle = angle
         shape = pymunk.Segment(body, (0.0, 0.0), (length, 0.0), self._radius_between(self.nodes[j], self.nodes[j] + length))
         shape.friction = self.cfg.tip_friction  # the newest segment is the tip
         shape.elasticity = 0.0
@@ -352,6 +357,8 @@ class EversionSim:
             self.springs[-1].stiffness = float(self._k_now[-1]) / self._beta
         else:
             sh.unsafe_set_endpoints((0.0, 0.0), (seg, 0.0))
+            if self._near_band(self.length):  # the tip's material changes radius as it grows
+                sh.unsafe_set_radius(self._radius_between(self.nodes[j], self.length))
 
     def _tip_threshold(self) -> tuple[float, float]:
         """Eversion threshold (Pa) of the material at the tip, and the tip area (m^2)."""

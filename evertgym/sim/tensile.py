@@ -71,9 +71,9 @@ def sim_tensile_test(
     for j in range(n):
         inertia, mass = segment_inertia(cfg, k_max[j], ks_max[j], ds)
         body = pymunk.Body(mass, inertia)
-        body.center_of_gravity = (ds / 2, 0.0)  # before the position, which it would move
+        body.center_of_gravity = (ds / 2, 0.0)  # first: later it would move the origin
+        body.angle = math.atan2(y[j + 1] - y[j], x[j + 1] - x[j])  # then the angle, then the origin
         body.position = (x[j], y[j])
-        body.angle = math.atan2(y[j + 1] - y[j], x[j + 1] - x[j])
         link = make_link(prev, body, prev_anchor, (0.0, 1.0), ds / 4, float(law.stiffness[j]), float(law.shear_stiffness[j]), beta)
         space.add(body, *link.constraints)
         bodies.append(body)
