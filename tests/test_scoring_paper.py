@@ -56,6 +56,12 @@ def test_colon_specs_and_json_contract(tmp_path, capsys):
     for r in out["rows"]:
         assert set(r) == {"reduction", "passed", "stall_position_mm", "peak_pressure_kpa"}
         assert r["peak_pressure_kpa"] <= 8.0 + 1e-9
+    bare, banded = out["rows"]
+    # the paper's case study: the bare robot stalls at the bend even at 8 kPa...
+    assert not bare["passed"] and bare["peak_pressure_kpa"] == pytest.approx(8.0)
+    assert 360.0 <= bare["stall_position_mm"] <= 460.0  # the bend starts at 360 mm
+    # ...the banded one passes below 8 kPa
+    assert banded["passed"] and banded["peak_pressure_kpa"] < 8.0
 
 
 def test_score_resumes_from_its_store(tmp_path, capsys):

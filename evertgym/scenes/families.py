@@ -64,6 +64,11 @@ def section_widths(path: Path, sections: list[tuple[Piece, float, float]]) -> np
     return w0[j] + (w1[j] - w0[j]) * smoothstep(u)
 
 
+#: The PLA U-bend casing's friction factor: with the robot's tip friction 0.2 an effective
+#: 0.175, the value that reproduces the paper's no-band U-bend rows (evertgym reproduce ubend).
+UBEND_WALL_FRICTION = 0.875
+
+
 def _check_goal(p: Mapping[str, Any], after: str = "lead_out_mm") -> None:
     if p["goal_after_bend_mm"] > p[after]:
         raise SceneError(
@@ -201,6 +206,9 @@ FAMILIES: dict[str, Family] = {
                                doc="inner-wall radius of the 180-degree bend (the paper's 40..20 mm)"),
             "exit_length_mm": Param(150.0, lo=0.0, hi=3000.0, unit="mm", doc="straight after the bend"),
             "goal_after_bend_mm": _GOAL,
+            "wall_friction": Param(UBEND_WALL_FRICTION, lo=0.0, hi=5.0,
+                                   doc="friction factor of the PLA casing (multiplies the robot's); fitted on the "
+                                       "paper's no-band U-bend rows"),
         },
         ubend_geometry,
         check=lambda p: _check_goal(p, "exit_length_mm"),

@@ -261,6 +261,8 @@ class Scene:
             pts = shell[simplify(shell, STATIC_WALL_TOLERANCE)]
             segs = [style_wall_shape(pymunk.Segment(body, tuple(pts[i]), tuple(pts[i + 1]), self.wall_radius))
                     for i in range(len(pts) - 1)]
+            for seg in segs:  # a family may declare its wall material's friction factor
+                seg.friction = float(self.params.get("wall_friction", seg.friction))
             space.add(*segs)
             handles.shapes += segs
         if self.compliant:
