@@ -78,8 +78,8 @@ def test_training_killed_after_a_checkpoint_resumes_and_counts_on(tmp_path):
     cmd = [sys.executable, "-m", "evertgym.cli", "train", str(cfg), "--out", str(out), "--no-progress"]
     proc = subprocess.Popen(cmd)
     deadline = time.time() + 240
-    while time.time() < deadline and not list(ckpt.glob("model_*_steps.zip")):
-        time.sleep(0.2)
+    while time.time() < deadline and not list(ckpt.glob("model_vecnormalize_*_steps.pkl")):
+        time.sleep(0.2)  # the statistics are saved after the model: a checkpoint is complete
     proc.kill()
     proc.wait()
     saved = sorted(int(p.name.split("_")[1]) for p in ckpt.glob("model_*_steps.zip"))

@@ -80,12 +80,21 @@ def _make_env_fn(env_id: str, env_kwargs: dict, rank: int, seed: int):
     return make
 
 
-def _latest_checkpoint(ckpt_dir: Path) -> tuple[Path, int] | None:
+def _latest_checkpoint(ckpt_dir: Path, normalize: bool) -> tuple[Path, int] | None:
+    """The newest complete checkpoint: a readable zip (and its VecNormalize statistics when
+    the run normalises); a crash while one was being written leaves it out."""
+    import zipfile
+
     best = None
     for p in ckpt_dir.glob("model_*_steps.zip"):
         m = re.match(r"model_(\d+)_steps\.zip", p.name)
-        if m and (best is None or int(m.group(1)) > best[1]):
-            best = (p, int(m.group(1)))
+        if not m or not zipfile.is_zipfile(p):
+            continue
+        steps = int(m.group(1))
+        if normalize and not (ckpt_dir / f"model_vecnormalize_{steps}_steps.pkl").exists():
+            continue
+        if best is None or steps > best[1]:
+            best = (p, steps)
     return best
 
 
@@ -106,7 +115,7 @@ def train(config_path: str | Path, out_dir: str | Path = "runs", resume: bool = 
     fns = [_make_env_fn(cfg["env_id"], cfg.get("env_kwargs", {}), i, seed) for i in range(n_envs)]
     venv = SubprocVecEnv(fns) if n_envs > 1 else DummyVecEnv(fns)
     algo_cls = {"ppo": PPO, "sac": SAC}[cfg["algo"]]
-    latest = _latest_checkpoint(ckpt_dir) if resume else None
+    latest = _latest_checkpoint(ckpt_dir, cfg.get("normalize", False)) if resume else None
     if latest is not None:
         ckpt, steps = latest
         stats = ckpt_dir / f"model_vecnormalize_{steps}_steps.pkl"
