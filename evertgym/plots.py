@@ -16,6 +16,18 @@ def _pyplot():
     return plt
 
 
+def save_figure(fig, path: str | Path, dpi: int = 120) -> Path:
+    """Lay out ``fig``, write it to ``path`` (folders created) and close it."""
+    import matplotlib.pyplot as plt
+
+    fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=dpi)
+    plt.close(fig)
+    return path
+
+
 def plot_stiffness_curves(curves: list[dict], path: str | Path) -> Path:
     """Force against tip displacement (0-20 mm) per paper row, model against measurement.
 
@@ -45,12 +57,7 @@ def plot_stiffness_curves(curves: list[dict], path: str | Path) -> Path:
         ax.legend(fontsize=6.5, loc="upper left")
     fig.suptitle("Lines: measured k x displacement (+/- 1 SD). Dots: Cosserat model" + (
         ". Crosses: pymunk simulator" if any(c.get("sim_force_n") is not None for c in curves) else ""), fontsize=9)
-    fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=130)
 
 
 def plot_pressure_position(rows: list[dict], path: str | Path) -> Path:
@@ -67,9 +74,4 @@ def plot_pressure_position(rows: list[dict], path: str | Path) -> Path:
     ax.set_ylabel("pressure (kPa)")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
-    fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)

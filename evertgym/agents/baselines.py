@@ -9,6 +9,7 @@ the measured insertion length (``info["insertion_length_mm"]``) and the clock.
 from __future__ import annotations
 
 import math
+from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -26,7 +27,7 @@ def _check(name: str, value: float, lo: float, hi: float, unit: str) -> None:
         raise ValueError(f"{name} = {value!r} is out of range: allowed [{lo:g}, {hi:g}] {unit}")
 
 
-class Policy:
+class Policy(ABC):
     """Interface: ``reset(env)`` then ``act(obs, info) -> action`` each control step."""
 
     name = "policy"
@@ -34,8 +35,9 @@ class Policy:
     def reset(self, env) -> None:
         self.dt = env.unwrapped.control_dt
 
-    def act(self, obs: np.ndarray, info: dict) -> np.ndarray:  # pragma: no cover - interface
-        raise NotImplementedError
+    @abstractmethod
+    def act(self, obs: np.ndarray, info: dict) -> np.ndarray:
+        """The action in [-1, 1] for this control step."""
 
 
 @dataclass

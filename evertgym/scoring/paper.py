@@ -123,6 +123,8 @@ def plot_ubend(result: dict, path: str | Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from evertgym.plots import save_figure
+
     from evertgym.model.params import load_measurements
 
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
@@ -142,9 +144,4 @@ def plot_ubend(result: dict, path: str | Path) -> Path:
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
     ax.set_title("U-bend at 3 kPa, 12 trials per point")
-    fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)

@@ -59,6 +59,8 @@ def plot_summary(rows: list[dict], path: str | Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from evertgym.plots import save_figure
+
     fig, ax = plt.subplots(figsize=(max(4.0, 1.2 * len(rows)), 3.6))
     x = range(len(rows))
     rate = [r["success_rate"] for r in rows]
@@ -67,9 +69,4 @@ def plot_summary(rows: list[dict], path: str | Path) -> Path:
     ax.set_xticks(list(x), [r["design_name"] for r in rows], rotation=20, fontsize=8)
     ax.set_ylabel("success rate (Wilson 95%)")
     ax.set_ylim(0, 1.05)
-    fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)
