@@ -50,8 +50,14 @@ def test_compliant_walls_are_bodies_on_springs_and_rest_in_equilibrium():
     assert n == len(handles.bodies) == len(space.bodies) == 2 * 48  # (510 - 30) mm in 10 mm pieces, both walls
     assert np.allclose(net.length, 10 * MM, atol=1.01 * MM)
     assert len(handles.springs) == 4 * n  # two normal and one tangential suspension spring, one link each
-    static = [s for s in handles.shapes if s.body is space.static_body]
+    static = [s for s in handles.shapes if s.body is space.static_body and s not in handles.backstop]
     assert static and all(s.bb.left < 0.031 for s in static)  # only the funnel is rigid
+    # the backstop lies behind the compliant wall, beyond a piece at its full travel (its
+    # face at travel + h on straights; the haustral folds bring it in by up to 1.5 mm)
+    travel, h = net.mechanics.max_travel_m, net.mechanics.thickness_m
+    ends = np.array([[tuple(s.a), tuple(s.b)] for s in handles.backstop]).reshape(-1, 2)
+    faces = scene.wall_distance(ends) - 0.5 * h
+    assert len(ends) and np.all(faces > travel) and np.median(faces) == pytest.approx(travel + h, abs=2e-4)
     filt = wall_shape_filter()
     for s in handles.shapes:
         assert s.collision_type == WALL_COLLISION_TYPE and s.filter == filt and s.friction == 1.0

@@ -59,13 +59,15 @@ class SceneHandles:
 
     ``bodies``: compliant wall pieces (empty for rigid scenes); ``shapes``: every wall shape;
     ``springs``: the wall's constraints; ``network``: the compliant wall's design and linear
-    statics (``None`` for rigid scenes).
+    statics (``None`` for rigid scenes); ``backstop``: the static shapes behind a compliant
+    wall that bound its travel (also in ``shapes``).
     """
 
     bodies: list[pymunk.Body] = field(default_factory=list)
     shapes: list[pymunk.Shape] = field(default_factory=list)
     springs: list[pymunk.Constraint] = field(default_factory=list)
     network: WallNetwork | None = None
+    backstop: list[pymunk.Shape] = field(default_factory=list)
 
     def positions(self) -> np.ndarray:
         """Current positions (P, 2) of the wall pieces (m)."""
@@ -271,7 +273,33 @@ class Scene:
             handles.bodies, shapes, handles.springs = net.build(space, factor)
             handles.shapes += shapes
             handles.network = net
+            handles.backstop = self._build_backstop(space, net.mechanics.max_travel_m)
+            handles.shapes += handles.backstop
         return handles
+
+    def _build_backstop(self, space: pymunk.Space, travel: float) -> list[pymunk.Shape]:
+        """Static walls ``travel`` (m) plus a wall thickness behind the compliant walls.
+
+        A tethered piece's centre moves at most ``travel``, but a piece pushed at one end
+        also turns about it, and two turned neighbours open a gap in the wall that a robot
+        pushed at 8 kPa escapes through.  The backstop (only the robot touches it; the wall
+        pieces pass it) bounds the lumen the way the tethers mean to: the channel widens by at
+        most ``travel`` on each side, wherever the robot pushes.
+        """
+        first = self.compliant_start
+        if len(self.arclength) - first < 2:
+            return []
+        shapes = []
+        for side, wall in enumerate(self.walls):
+            part = wall[first:]
+            sign = 1.0 if side == 0 else -1.0
+            shell = part + sign * polyline_normals(part) * (travel + 3.0 * self.wall_radius)
+            pts = shell[simplify(shell, STATIC_WALL_TOLERANCE)]
+            segs = [style_wall_shape(pymunk.Segment(space.static_body, tuple(pts[i]), tuple(pts[i + 1]), self.wall_radius))
+                    for i in range(len(pts) - 1)]
+            space.add(*segs)
+            shapes += segs
+        return shapes
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:

@@ -43,6 +43,12 @@ class SimConfig:
         wall as it everts and slides easily.  ``regulator_tau_s``: pressure
         lag.  ``growth_gain_m_per_s_per_pa``, ``bend_loss_per_rad``, ``max_growth_speed_m_per_s``:
         the growth law (:mod:`evertgym.sim.growth`).
+    Rest lock
+        A stalled robot whose every dynamic body (segments and compliant wall pieces)
+        moves slower than ``rest_speed_m_per_s`` is in static equilibrium: it is held there,
+        without stepping the solver, until the regulated pressure moves by more than
+        ``rest_pressure_tol_pa`` (Coulomb friction sticks; Chipmunk's iterative solver only
+        approximates sticking and lets a loaded chain creep, then kick).  0 disables it.
     Events
         ``stall_time_s``: a stall is no growth faster than ``stall_speed_m_per_s`` for this long.
     """
@@ -65,6 +71,8 @@ class SimConfig:
     max_growth_speed_m_per_s: float = MAX_GROWTH_SPEED_M_PER_S
     stall_time_s: float = 1.0
     stall_speed_m_per_s: float = 1e-3
+    rest_speed_m_per_s: float = 1e-5
+    rest_pressure_tol_pa: float = 1.0
     initial_length_m: float = 0.015
 
     def __post_init__(self) -> None:
@@ -86,6 +94,8 @@ class SimConfig:
         _check("max_growth_speed_m_per_s", self.max_growth_speed_m_per_s, 0.0, 10.0, lo_open=True)
         _check("stall_time_s", self.stall_time_s, 0.0, 1e6, lo_open=True)
         _check("stall_speed_m_per_s", self.stall_speed_m_per_s, 0.0, 10.0)
+        _check("rest_speed_m_per_s", self.rest_speed_m_per_s, 0.0, 1e-2)
+        _check("rest_pressure_tol_pa", self.rest_pressure_tol_pa, 0.0, 1000.0)
         _check("initial_length_m", self.initial_length_m, self.segment_length_m, 100.0)
         if self.max_growth_speed_m_per_s * self.dt_s > 0.2 * self.segment_length_m:
             raise ValueError(

@@ -143,6 +143,7 @@ class EversionSim:
         self._bands_reached: set[int] = set()
         self._stall_clock = 0.0
         self._stalled = False
+        self._rest_pressure: float | None = None  # the pressure (Pa) the rest lock holds at
         self.stall_count = 0
         self.growth_speed = 0.0
         self.tip_force = 0.0
@@ -339,14 +340,18 @@ class EversionSim:
         j = len(self.bodies) - 1
         sh = self.shapes[-1]
         seg = self.length - self.nodes[j]
+        r_old = sh.radius
         if seg >= 2 * self.ds - 1e-12 and j + 1 < len(self.nodes):
             # split: the tip segment becomes a full segment and a new tip starts at node j+1
             sh.unsafe_set_endpoints((0.0, 0.0), (self.ds, 0.0))
-            sh.unsafe_set_radius(self._radius_between(self.nodes[j], self.nodes[j] + self.ds))
+            # a laid-down segment is never wider than the tip it was: widening it in place
+            # would push it into a wall it already touches
+            sh.unsafe_set_radius(min(self._radius_between(self.nodes[j], self.nodes[j] + self.ds), r_old))
             sh.friction = self.cfg.wall_friction  # no longer the tip: laid down
             body = self.bodies[-1]
             origin = np.array(body.local_to_world((self.ds, 0.0)))
             self._add_segment(j + 1, seg - self.ds, origin, body.angle)
+            self.shapes[-1].unsafe_set_radius(self._tip_radius(r_old, self.nodes[j + 1], dl))
             nb = self.bodies[-1]
             nb.velocity = body.velocity_at_local_point((self.ds, 0.0))
             nb.angular_velocity = body.angular_velocity
@@ -358,7 +363,15 @@ class EversionSim:
         else:
             sh.unsafe_set_endpoints((0.0, 0.0), (seg, 0.0))
             if self._near_band(self.length):  # the tip's material changes radius as it grows
-                sh.unsafe_set_radius(self._radius_between(self.nodes[j], self.length))
+                sh.unsafe_set_radius(self._tip_radius(r_old, self.nodes[j], dl))
+
+    def _tip_radius(self, r_old: float, start: float, dl: float) -> float:
+        """Collision radius (m) of the tip segment starting at material coordinate ``start``
+        after the tip grew by ``dl`` (m): the envelope of its newest ``ds`` of material (what
+        has just everted, not a band it has left behind), widening by at most ``dl / 2`` per
+        step so a tip leaving a band eases out from a wall instead of jumping into it."""
+        target = self._radius_between(max(start, self.length - self.ds), self.length)
+        return min(target, r_old + 0.5 * dl)
 
     def _tip_threshold(self) -> tuple[float, float]:
         """Eversion threshold (Pa) of the material at the tip, and the tip area (m^2)."""
@@ -439,6 +452,14 @@ class EversionSim:
         for _ in range(n_steps):
             p = self.regulator.advance(dt)
             self.peak_pressure = max(self.peak_pressure, p)
+            if self._rest_pressure is not None:
+                if abs(p - self._rest_pressure) <= cfg.rest_pressure_tol_pa:
+                    self.t += dt  # held in static equilibrium: nothing moves, nothing grows
+                    self.steps += 1
+                    self.growth_speed = 0.0
+                    self._stall_update(0.0, dt)
+                    continue
+                self._rest_pressure = None
             if self.steps % cfg.law_interval == 0:
                 if abs(p - self._p_applied) > 0.005 * max(self._p_applied, 100.0):
                     self._apply_pressure(p)  # rescales the joints, then updates the law
@@ -456,7 +477,29 @@ class EversionSim:
             self._grow(v)
             self.growth_speed = v
             self._stall_update(v, dt)
+            if self._stalled and cfg.rest_speed_m_per_s > 0 and self.steps % _FREEZE_INTERVAL == 0 and self._at_rest(p):
+                self._rest_pressure = p
         self._check_finite()
+
+    def _at_rest(self, p: float) -> bool:
+        """Whether every dynamic body in the space (active segments, compliant wall pieces)
+        moves slower than ``cfg.rest_speed_m_per_s`` at its far end, and the regulated
+        pressure has settled on its command."""
+        if abs(self.regulator.command - p) > self.cfg.rest_pressure_tol_pa:
+            return False
+        vmax = self.cfg.rest_speed_m_per_s
+        reach = 2.0 * self.ds
+        for b in self.space.bodies:
+            if b.body_type != pymunk.Body.DYNAMIC:
+                continue
+            if b.velocity.length + abs(b.angular_velocity) * reach > vmax:
+                return False
+        return True
+
+    @property
+    def at_rest(self) -> bool:
+        """Whether the robot is held in static equilibrium by the rest lock."""
+        return self._rest_pressure is not None
 
     def _stall_update(self, v: float, dt: float) -> None:
         if v < self.cfg.stall_speed_m_per_s and self.length < self.design.length_m:
