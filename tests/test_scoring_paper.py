@@ -56,11 +56,23 @@ def test_colon_specs_and_json_contract(tmp_path, capsys):
     for r in out["rows"]:
         assert set(r) == {"reduction", "passed", "stall_position_mm", "peak_pressure_kpa"}
         assert r["peak_pressure_kpa"] <= 8.0 + 1e-9
-    bare, banded = out["rows"]
+    bare = out["rows"][0]
     # the paper's case study: the bare robot stalls at the bend even at 8 kPa...
     assert not bare["passed"] and bare["peak_pressure_kpa"] == pytest.approx(8.0)
     assert 360.0 <= bare["stall_position_mm"] <= 460.0  # the bend starts at 360 mm
-    # ...the banded one passes below 8 kPa
+
+
+@pytest.mark.xfail(strict=True, reason="open (issue 6): the banded robot also stalls at the colon bend")
+def test_banded_robot_passes_the_colon_bend(tmp_path, capsys):
+    """The paper's case study: the robot with 3 x 10% bands passes the bend below 8 kPa.
+
+    Known miss: it stalls at about 436 mm at 8 kPa, its tip pressed almost head-on (within
+    5 degrees) against the bend's outer wall.  It "passed" until the colon-escape fix (see
+    tests/test_stress.py::test_the_robot_stays_inside_a_pushed_colon_wall): it had grown out
+    through a gap in the wall.
+    """
+    assert main(["reproduce", "colon", "--json", "--db", str(tmp_path / "c.sqlite")]) == 0
+    banded = json.loads(capsys.readouterr().out)["rows"][1]
     assert banded["passed"] and banded["peak_pressure_kpa"] < 8.0
 
 

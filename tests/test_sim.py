@@ -200,3 +200,34 @@ def test_instability_names_the_setting_to_change():
     sim.bodies[-1].angular_velocity = 1e6
     with pytest.raises(NumericalInstabilityError, match="dt_s"):
         sim.step(1)
+
+
+class _InclinedWall:
+    """A scene of one straight static wall through ``(x_m, 0)`` at ``angle_deg`` to +x."""
+
+    def __init__(self, x_m: float, angle_deg: float):
+        self.x, self.angle = x_m, math.radians(angle_deg)
+
+    def build(self, space: pymunk.Space, dt: float | None = None) -> None:
+        from evertgym.scenes.compliant import style_wall_shape
+
+        d = np.array([math.cos(self.angle), math.sin(self.angle)])
+        p0, p1 = np.array([self.x, 0.0]) - 0.3 * d, np.array([self.x, 0.0]) + 0.3 * d
+        space.add(style_wall_shape(pymunk.Segment(space.static_body, tuple(p0), tuple(p1), 0.001)))
+
+
+@pytest.mark.parametrize("wall_deg, deflects", [(45.0, True), (60.0, True), (70.0, False), (80.0, False)])
+def test_tip_slides_along_an_oblique_wall_and_stalls_on_a_steep_one(wall_deg, deflects):
+    """Tip deflection, the behaviour Greer et al. (IJRR 2020) report for vine robots: a tip
+    meeting a wall obliquely turns and grows along it; one meeting it nearly head-on stalls.
+    Here the 40 mm robot at 3 kPa meets a wall 100 mm ahead at incidence 90 - wall_deg from
+    the wall's normal: it slides along walls of 45 and 30 degrees incidence (tip friction
+    0.2, whose cone is 11 degrees) and stalls against 20 and 10 degrees."""
+    sim = EversionSim(TubeDesign(length_m=0.3), scene=_InclinedWall(0.1, wall_deg))
+    sim.set_pressure_command(3000.0)
+    sim.run(4.0)
+    heading = math.degrees(math.atan2(sim.tip_direction[1], sim.tip_direction[0]))
+    if deflects:
+        assert sim.length == pytest.approx(0.3) and heading == pytest.approx(wall_deg, abs=10.0)
+    else:
+        assert sim.stalled and sim.length < 0.1 and abs(heading) < 10.0
