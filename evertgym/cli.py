@@ -199,6 +199,14 @@ def cmd_bench_accuracy(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_bench_peers(args: argparse.Namespace) -> int:
+    from evertgym.bench.peers import compare, format_table
+
+    result = compare()
+    print(json.dumps(result) if args.json else "\n".join(format_table(result)))
+    return 0
+
+
 def cmd_bench_env(args: argparse.Namespace) -> int:
     import os
 
@@ -365,7 +373,9 @@ def cmd_eval(args: argparse.Namespace) -> int:
 
     if args.episodes < 1:
         raise CLIError(f"--episodes = {args.episodes} is out of range: allowed >= 1")
-    rows = evaluate(args.policies, args.env, args.episodes)
+    if args.workers < 1:
+        raise CLIError(f"--workers = {args.workers} is out of range: allowed >= 1")
+    rows = evaluate(args.policies, args.env, args.episodes, workers=args.workers)
     if args.json:
         print(json.dumps({"rows": rows}))
         return 0
@@ -477,6 +487,7 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--env", required=True)
     ev.add_argument("--episodes", type=int, default=20)
     ev.add_argument("--json", action="store_true")
+    ev.add_argument("--workers", type=int, default=1, help="processes to spread the episodes over (default 1)")
     ev.set_defaults(func=cmd_eval)
 
     ro = sub.add_parser("rollout", help="render one episode to a GIF")
@@ -492,6 +503,10 @@ def build_parser() -> argparse.ArgumentParser:
     ba.add_argument("--quick", action="store_true", help="a smaller sweep")
     ba.add_argument("--json", action="store_true")
     ba.set_defaults(func=cmd_bench_accuracy)
+    bp = bench_sub.add_parser("peers", help="wall time against PyElastica and MuJoCo at 1%% tip-force error "
+                                            "(pip install -e '.[bench]')")
+    bp.add_argument("--json", action="store_true")
+    bp.set_defaults(func=cmd_bench_peers)
     be = bench_sub.add_parser("env", help="env steps per second per registered id (random actions, one core)")
     be.add_argument("--steps", type=int, default=500)
     be.add_argument("--env", action="append", help="an env id (repeatable); default: every registered id")

@@ -21,21 +21,49 @@ def run_episode(env, policy, seed: int) -> dict:
             return info
 
 
-def evaluate(policies: list[str | dict], env_id: str, episodes: int, env_kwargs: dict | None = None, seed_base: int = HELD_OUT_SEED_BASE) -> list[dict]:
-    """One row per policy: success rate (Wilson 95%), mean time to goal, peak pressure and
-    max contact force over ``episodes`` episodes whose seeds (and scene seeds) are
-    ``seed_base + i``, the same for every policy."""
+def _run_episodes(desc: str | dict, env_id: str, env_kwargs: dict | None, seeds: list[int]) -> list[dict]:
+    """Final ``info`` of one episode per seed (episode and scene seed alike) for one policy."""
     import evertgym  # noqa: F401  (registers the envs)
 
+    policy = make_policy(desc)
+    # observation flags a trained model needs; they do not change the physics
+    env = gym.make(env_id, **{**(env_kwargs or {}), **getattr(policy, "env_kwargs", {})})
+    try:
+        return [run_episode(env, policy, seed) for seed in seeds]
+    finally:
+        env.close()
+
+
+def _worker_init() -> None:
+    import torch
+
+    torch.set_num_threads(1)
+
+
+def evaluate(policies: list[str | dict], env_id: str, episodes: int, env_kwargs: dict | None = None,
+             seed_base: int = HELD_OUT_SEED_BASE, workers: int = 1) -> list[dict]:
+    """One row per policy: success rate (Wilson 95%), mean time to goal, peak pressure and
+    max contact force over ``episodes`` episodes whose seeds (and scene seeds) are
+    ``seed_base + i``, the same for every policy.  ``workers > 1`` spreads the episodes
+    over that many processes; every episode is seeded, so the rows do not change."""
     if not (isinstance(episodes, int) and episodes >= 1):
         raise ValueError(f"episodes = {episodes!r} is out of range: allowed integers >= 1")
+    if not (isinstance(workers, int) and workers >= 1):
+        raise ValueError(f"workers = {workers!r} is out of range: allowed integers >= 1")
+    seeds = [seed_base + i for i in range(episodes)]
+    chunks = [seeds[k::workers] for k in range(workers) if seeds[k::workers]]
+    if len(chunks) > 1:
+        import multiprocessing as mp
+        from concurrent.futures import ProcessPoolExecutor
+
+        with ProcessPoolExecutor(len(chunks), mp_context=mp.get_context("spawn"), initializer=_worker_init) as pool:
+            futures = [[pool.submit(_run_episodes, desc, env_id, env_kwargs, c) for c in chunks] for desc in policies]
+            per_policy = [dict(zip((s for c in chunks for s in c), (i for f in fs for i in f.result()))) for fs in futures]
+        results = [[by_seed[s] for s in seeds] for by_seed in per_policy]
+    else:
+        results = [_run_episodes(desc, env_id, env_kwargs, seeds) for desc in policies]
     rows = []
-    for desc in policies:
-        policy = make_policy(desc)
-        # observation flags a trained model needs; they do not change the physics
-        env = gym.make(env_id, **{**(env_kwargs or {}), **getattr(policy, "env_kwargs", {})})
-        infos = [run_episode(env, policy, seed_base + i) for i in range(episodes)]
-        env.close()
+    for desc, infos in zip(policies, results):
         wins = [i for i in infos if i["success"]]
         lo, hi = wilson_interval(len(wins), episodes)
         rows.append(
