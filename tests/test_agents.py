@@ -106,3 +106,32 @@ def test_training_killed_after_a_checkpoint_resumes_and_counts_on(tmp_path):
     # the counter continued from the checkpoint: it never restarted below it
     assert model.num_timesteps >= max(saved)
     assert list((out / "tiny_ppo" / "tb").rglob("events.out.tfevents*"))  # TensorBoard logs
+
+
+def test_a_stochastic_policy_is_repeatable_per_episode_seed():
+    """``model.zip:stochastic`` draws actions from the PPO Gaussian with a generator seeded by
+    the episode seed: the same seed gives the same actions, another seed others, and the
+    mean (deterministic) actions differ from both."""
+    import gymnasium as gym
+
+    from evertgym.agents.policies import make_policy
+
+    def actions(desc: str, seed: int) -> np.ndarray:
+        policy = make_policy(desc)
+        env = gym.make("evertgym/UBend-v0", **policy.env_kwargs)
+        obs, info = env.reset(seed=seed, options={"scene_seed": seed})
+        policy.reset(env)
+        out = []
+        for _ in range(20):
+            a = policy.act(obs, info)
+            out.append(float(a[0]))
+            obs, _, term, trunc, info = env.step(a)
+        return np.array(out)
+
+    shipped = "agents/ubend_ppo/final.zip"
+    a1, a2 = actions(shipped + ":stochastic", 7), actions(shipped + ":stochastic", 7)
+    assert np.array_equal(a1, a2) and np.all(np.abs(a1) <= 1.0)
+    assert not np.array_equal(a1, actions(shipped + ":stochastic", 8))
+    assert not np.allclose(a1, actions(shipped + ":deterministic", 7))
+    with pytest.raises(ValueError, match="deterministic' or 'stochastic"):
+        make_policy(shipped + ":greedy")

@@ -12,11 +12,17 @@ from evertgym.agents.baselines import Policy, make_baseline
 
 class SB3Policy(Policy):
     """A saved stable-baselines3 model (``.zip``), with its VecNormalize statistics if a
-    ``vecnormalize.pkl`` sits beside it; deterministic actions."""
+    ``vecnormalize.pkl`` sits beside it.
+
+    Actions are the policy's mean (``deterministic=True``) or drawn from its Gaussian
+    (PPO only) with a generator seeded by each episode's seed, so a stochastic evaluation
+    is repeatable too.  ``deterministic=None`` takes the mode the model was shipped with
+    (``"deterministic"`` in ``<stem>_env.json``; default True).
+    """
 
     name = "agent"
 
-    def __init__(self, path: str | Path):
+    def __init__(self, path: str | Path, deterministic: bool | None = None):
         from stable_baselines3 import PPO, SAC
 
         path = Path(path)
@@ -33,7 +39,12 @@ class SB3Policy(Policy):
             raise ValueError(f"policy path = {str(path)!r} is not a PPO or SAC model: {last_error}")
         meta = path.with_name(path.stem + "_env.json")
         #: env kwargs the model was trained with (observation flags); evaluation applies them
-        self.env_kwargs = json.loads(meta.read_text())["env_kwargs"] if meta.exists() else {}
+        shipped = json.loads(meta.read_text()) if meta.exists() else {}
+        self.env_kwargs = shipped.get("env_kwargs", {})
+        self.deterministic = bool(shipped.get("deterministic", True)) if deterministic is None else bool(deterministic)
+        if not self.deterministic and not isinstance(self.model, PPO):
+            raise ValueError(f"policy path = {str(path)!r}: stochastic actions are supported for PPO models only")
+        self.rng = np.random.default_rng(0)
         stats = path.with_name(path.stem + "_vecnormalize.pkl")
         self.obs_rms = None
         if stats.exists():
@@ -43,23 +54,44 @@ class SB3Policy(Policy):
                 vn = pickle.load(f)
             self.obs_rms, self.clip_obs, self.epsilon = vn.obs_rms, vn.clip_obs, vn.epsilon
 
+    def reset(self, env) -> None:
+        super().reset(env)
+        seed = getattr(env.unwrapped, "np_random_seed", None)
+        self.rng = np.random.default_rng(None if seed is None or seed < 0 else int(seed))
+
     def act(self, obs, info):
         x = np.asarray(obs, dtype=np.float32)
         if self.obs_rms is not None:
             x = np.clip((x - self.obs_rms.mean) / np.sqrt(self.obs_rms.var + self.epsilon), -self.clip_obs, self.clip_obs)
-        action, _ = self.model.predict(x.astype(np.float32), deterministic=True)
-        return np.asarray(action, dtype=np.float32).reshape(1)
+        if self.deterministic:
+            action, _ = self.model.predict(x.astype(np.float32), deterministic=True)
+            return np.asarray(action, dtype=np.float32).reshape(1)
+        import torch
+
+        with torch.no_grad():
+            obs_t, _ = self.model.policy.obs_to_tensor(x.astype(np.float32))
+            dist = self.model.policy.get_distribution(obs_t).distribution
+            mean, std = dist.mean.numpy().reshape(-1), dist.stddev.numpy().reshape(-1)
+        action = mean + std * self.rng.standard_normal(mean.shape)
+        return np.clip(action, -1.0, 1.0).astype(np.float32).reshape(1)
 
 
 def make_policy(desc: dict | str) -> Policy:
-    """``{"name": "constant", "pressure_kpa": 3}``, ``"operator"``, ``{"name": "agent", "path": ...}``
-    or the path of a saved model."""
+    """``{"name": "constant", "pressure_kpa": 3}``, ``"operator"``, ``{"name": "agent", "path": ...,
+    "deterministic": ...}`` or the path of a saved model, optionally with its action mode
+    (``"model.zip:stochastic"``, ``"model.zip:deterministic"``)."""
     if isinstance(desc, str):
-        desc = {"name": "agent", "path": desc} if desc.endswith(".zip") else {"name": desc}
+        path, _, mode = desc.partition(".zip:")
+        if mode:  # "model.zip:deterministic" or "model.zip:stochastic"
+            if mode not in ("deterministic", "stochastic"):
+                raise ValueError(f"policy = {desc!r}: the mode after '.zip:' must be 'deterministic' or 'stochastic'")
+            desc = {"name": "agent", "path": path + ".zip", "deterministic": mode == "deterministic"}
+        else:
+            desc = {"name": "agent", "path": desc} if desc.endswith(".zip") else {"name": desc}
     desc = dict(desc)
     name = desc.pop("name", None)
     if name == "agent":
-        return SB3Policy(desc["path"])
+        return SB3Policy(desc["path"], desc.get("deterministic"))
     if name is None:
         raise ValueError("policy must have a name: constant, operator, tuned or agent")
     return make_baseline(name, **desc)
