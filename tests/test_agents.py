@@ -38,6 +38,19 @@ def test_operator_raises_pressure_when_progress_stalls():
     assert max(cmds) < 1.5  # and stopped raising once it moved
 
 
+def test_cycling_is_a_square_wave_of_the_control_clock():
+    env = EversionEnv(scene={"family": "straight", "params": {}}, design={"tube": {"length_mm": 600.0}}, control_hz=10.0)
+    env.reset(seed=0)
+    cyc = make_baseline("cycle", low_kpa=1.0, high_kpa=6.0, period_s=1.0)
+    cyc.reset(env)
+    cmds = [round(float((cyc.act(None, {})[0] + 1) * 4), 6) for _ in range(20)]
+    assert cmds == ([6.0] * 5 + [1.0] * 5) * 2
+    with pytest.raises(ValueError, match="period_s"):
+        make_baseline("cycle", period_s=0.0)
+    with pytest.raises(ValueError, match="high_kpa"):
+        make_baseline("cycle", high_kpa=12.0)
+
+
 @pytest.mark.parametrize("kwargs, field", [(dict(pressure_kpa=9.0), "pressure_kpa"), (dict(pressure_kpa=float("nan")), "pressure_kpa")])
 def test_baselines_reject_bad_parameters(kwargs, field):
     with pytest.raises(ValueError, match=field):

@@ -100,11 +100,39 @@ class OperatorProtocol(Policy):
         return pressure_to_action(self.p)
 
 
-BASELINES = {"constant": ConstantPressure, "operator": OperatorProtocol}
+@dataclass
+class PressureCycling(Policy):
+    """A square wave: ``high_kpa`` for the first half of every ``period_s``, ``low_kpa`` for
+    the second.  Deflating lets a tip jammed against a wall relax and turn before the next
+    inflation pushes it on; it needs neither sensing nor a model."""
+
+    low_kpa: float = 1.0
+    high_kpa: float = 8.0
+    period_s: float = 2.0
+    name: str = field(default="cycle", init=False)
+
+    def __post_init__(self) -> None:
+        _check("low_kpa", self.low_kpa, 0.0, 8.0, "kPa")
+        _check("high_kpa", self.high_kpa, 0.0, 8.0, "kPa")
+        _check("period_s", self.period_s, 0.0, 600.0, "s")
+        if self.period_s <= 0:
+            raise ValueError(f"period_s = {self.period_s!r} is out of range: allowed (0, 600] s")
+
+    def reset(self, env) -> None:
+        super().reset(env)
+        self.steps = 0
+
+    def act(self, obs, info):
+        phase = ((self.steps * self.dt + 1e-9) % self.period_s) / self.period_s  # 1e-9 s: float round-off
+        self.steps += 1
+        return pressure_to_action(self.high_kpa if phase < 0.5 else self.low_kpa)
+
+
+BASELINES = {"constant": ConstantPressure, "operator": OperatorProtocol, "cycle": PressureCycling}
 
 
 def make_baseline(name: str, **kwargs) -> Policy:
-    """A baseline policy by name (``constant``, ``operator``, ``tuned``) with its parameters."""
+    """A baseline policy by name (``constant``, ``operator``, ``cycle``, ``tuned``) with its parameters."""
     if name == "tuned":
         from evertgym.agents.tuned import load_tuned
 
