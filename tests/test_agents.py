@@ -148,3 +148,16 @@ def test_a_stochastic_policy_is_repeatable_per_episode_seed():
     assert not np.allclose(a1, actions(shipped + ":deterministic", 7))
     with pytest.raises(ValueError, match="deterministic' or 'stochastic"):
         make_policy(shipped + ":greedy")
+
+
+def test_rollout_writes_a_gif_and_the_command_trace(tmp_path):
+    from PIL import Image
+
+    from evertgym.agents.rollout import rollout_gif
+
+    out = rollout_gif({"name": "constant", "pressure_kpa": 8.0}, "evertgym/UBend-v0", tmp_path / "r.gif", seed=3, every=10)
+    assert out["command_kpa"] and set(out["command_kpa"]) == {8.0}
+    with Image.open(out["out"]) as gif:
+        assert gif.n_frames == out["frames"] >= 2
+    with pytest.raises(ValueError, match=".gif"):
+        rollout_gif("operator", "evertgym/UBend-v0", tmp_path / "r.mp4")

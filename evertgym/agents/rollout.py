@@ -10,7 +10,8 @@ from evertgym.agents.policies import make_policy
 
 
 def rollout_gif(policy_desc: str, env_id: str, out: str | Path, seed: int = 0, every: int = 2) -> dict:
-    """Run one episode with ``render_mode="rgb_array"``; every ``every``-th frame goes to ``out``."""
+    """Run one episode with ``render_mode="rgb_array"``; every ``every``-th frame goes to ``out``.
+    Returns the outcome and the pressure command of every control step (``command_kpa``)."""
     from PIL import Image
 
     import evertgym  # noqa: F401
@@ -23,9 +24,11 @@ def rollout_gif(policy_desc: str, env_id: str, out: str | Path, seed: int = 0, e
     obs, info = env.reset(seed=seed)
     policy.reset(env)
     frames = [env.render()]
+    commands: list[float] = []
     k = 0
     while True:
         obs, _, term, trunc, info = env.step(policy.act(obs, info))
+        commands.append(round(env.unwrapped.command_pa / 1e3, 2))
         k += 1
         if k % every == 0 or term or trunc:
             frames.append(env.render())
@@ -36,4 +39,5 @@ def rollout_gif(policy_desc: str, env_id: str, out: str | Path, seed: int = 0, e
     fps = env.metadata.get("render_fps", 10) / every
     images[0].save(out, save_all=True, append_images=images[1:], duration=int(1000 / fps), loop=0)
     env.close()
-    return {"frames": len(images), "success": bool(info["success"]), "out": str(out)}
+    return {"frames": len(images), "success": bool(info["success"]), "time_s": round(float(info["time_s"]), 2),
+            "peak_pressure_kpa": round(float(info["peak_pressure_kpa"]), 3), "command_kpa": commands, "out": str(out)}
