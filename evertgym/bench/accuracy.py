@@ -40,6 +40,8 @@ import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
+import numpy as np
+
 from evertgym.design import Band, TubeDesign
 from evertgym.model.stiffness import paper_prototype, virtual_tensile_test
 from evertgym.scenes import PAPER_UBEND_RADII_MM, make_scene, render_rgb
@@ -57,6 +59,17 @@ PAPER_DESIGNS: tuple[tuple[str, tuple[float, ...], float], ...] = (
 )
 #: Lateral tip displacements (m) of the tensile test; the pose error uses the last.
 DISPLACEMENTS_M = (0.020, 0.060)
+#: The contact-safety run of :func:`wall_overlap_mm`: U-bend inner radius (mm), pressure (Pa),
+#: duration (s), and the contact tolerances (m) of the stress tests (tests/test_stress.py):
+#: every node but the tip's, and the tip's.
+SAFETY_RADIUS_MM = 20.0
+SAFETY_PRESSURE_PA = 8000.0
+SAFETY_TIME_S = 8.0
+BODY_TOLERANCE_M = 1e-3
+TIP_TOLERANCE_M = 2e-3
+#: Band centres (m from the base) of the paper's colon robot.
+COLON_BANDS_M = (0.25, 0.30, 0.35)
+
 #: Largest ``tip_force_error`` a default setting may have.
 FORCE_ERROR_BUDGET = 0.03
 #: U-bend trials: inner radii (mm, the paper's 20-40 mm), band sets (position from the base
@@ -187,6 +200,43 @@ def ubend_outcome(config: SimConfig, radius_mm: float, bands: Sequence[tuple[flo
     return "fail"
 
 
+def wall_overlap_mm(config: SimConfig) -> float:
+    """Largest depth (mm) by which the tube's surface passed into a wall, beyond the stress
+    tests' contact tolerances (1 mm, 2 mm at the tip), while the 0.9 m, 40 mm robot grows 8 s into the tightest (20 mm) U-bend
+    at 8 kPa: the hardest contact of the paper's experiments (checked every 5 steps).  A
+    setting with a positive value lets the tip tunnel; ``inf`` if it became unstable."""
+    scene = make_scene({"family": "ubend", "params": {"radius_mm": SAFETY_RADIUS_MM}})
+    worst = -math.inf
+    try:
+        sim = EversionSim(TubeDesign(length_m=ROBOT_LENGTH_M), scene=scene, config=config)
+        sim.set_pressure_command(SAFETY_PRESSURE_PA)
+        while sim.t < SAFETY_TIME_S - 1e-9:
+            sim.step(5)
+            line = sim.centreline()[1:]
+            tol = np.full(len(line), BODY_TOLERANCE_M)
+            tol[-1] = TIP_TOLERANCE_M
+            worst = max(worst, float(np.max(sim.radii() - scene.wall_distance(line) - tol)))
+    except NumericalInstabilityError:
+        return math.inf
+    return max(worst, 0.0) * 1e3
+
+
+def colon_peak_force_n(config: SimConfig) -> float:
+    """Largest tip contact force (N) while the paper's banded colon robot (20 mm, 0.8 m,
+    3 x 10% bands at 250/300/350 mm) is pushed into the default colon phantom's bend at
+    8 kPa for 8 s: how hard a compliant wall is hit, which the static tensile error cannot
+    see (``inf`` if the run became unstable)."""
+    scene = make_scene({"family": "colon", "params": {}})
+    design = TubeDesign(diameter_m=0.02, length_m=0.8, bands=tuple(Band(p, 0.1) for p in COLON_BANDS_M))
+    try:
+        sim = EversionSim(design, scene=scene, config=config)
+        sim.set_pressure_command(SAFETY_PRESSURE_PA)
+        sim.run(SAFETY_TIME_S)
+    except NumericalInstabilityError:
+        return math.inf
+    return float(sim.max_contact_force)
+
+
 def ubend_trials(quick: bool = False) -> list[tuple[float, tuple[tuple[float, float], ...], float]]:
     """The U-bend trials ``(radius mm, bands, pressure Pa)``, in order: every pressure, band
     set and radius (fewer radii and pressures with ``quick``)."""
@@ -255,6 +305,8 @@ def measure_setting(setting: SweepSetting, refs: Mapping, trials: Sequence, refe
     row["ubend_disagreement"] = sum(a != b for a, b in zip(outcomes, ref)) / len(outcomes)
     row["ubend_outcomes"] = outcomes
     row["wall_s_per_sim_s"] = ubend_growth_cost(config)
+    row["wall_overlap_mm"] = wall_overlap_mm(config)
+    row["colon_peak_force_n"] = colon_peak_force_n(config)
     return row
 
 
@@ -270,9 +322,11 @@ def run_sweep(settings: Sequence[SweepSetting] | None = None, quick: bool = Fals
     "quick": bool}``.  Each row holds ``label``, ``setting`` (the fidelity fields, SI),
     ``tip_force_error``, ``tip_pose_error_mm``, ``ubend_disagreement``, ``wall_s_per_sim_s``,
     ``tensile_converged``, ``ubend_outcomes`` and ``pareto`` (Pareto-optimal in wall time,
-    force error and U-bend disagreement).  ``default`` is the fastest row whose tensile tests
-    converged with ``tip_force_error <= 0.03``, with ``equals_simconfig_default`` telling
-    whether it is the current :class:`SimConfig` default.
+    force error and U-bend disagreement), ``wall_overlap_mm`` (see :func:`wall_overlap_mm`) and
+    ``colon_peak_force_n`` (see :func:`colon_peak_force_n`; reported, not used to choose).
+    ``default`` is the fastest row whose tensile tests converged with ``tip_force_error <=
+    0.03`` and whose tube never passed into a wall (``wall_overlap_mm == 0``), with
+    ``equals_simconfig_default`` telling whether it is the current :class:`SimConfig` default.
     """
     settings = list(settings if settings is not None else default_settings(quick))
     done = dict(done or {})
@@ -289,7 +343,8 @@ def run_sweep(settings: Sequence[SweepSetting] | None = None, quick: bool = Fals
         rows.append(row)
     for row, flag in zip(rows, pareto_flags(rows, ("wall_s_per_sim_s", "tip_force_error", "ubend_disagreement"))):
         row["pareto"] = flag
-    eligible = [r for r in rows if r["tensile_converged"] and r["tip_force_error"] <= FORCE_ERROR_BUDGET]
+    eligible = [r for r in rows if r["tensile_converged"] and r["tip_force_error"] <= FORCE_ERROR_BUDGET
+                and r.get("wall_overlap_mm", 0.0) <= 0.0]
     current = {name: getattr(SimConfig(), name) for name in FIDELITY_FIELDS}
     default: dict = {"simconfig_default": current, "budget": FORCE_ERROR_BUDGET}
     if eligible:
