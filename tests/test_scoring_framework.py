@@ -264,6 +264,28 @@ def test_serial_run_resumes_and_returns_records_in_spec_order(tmp_path, capsys):
     assert all(r.result == check_result(fake_trial(r.spec)) for r in recs)
 
 
+def test_resuming_over_trials_of_another_build_warns_and_reuses_them(tmp_path):
+    """A store keeps each trial's code fingerprint; reusing trials computed by another build
+    of evertgym warns (the results are not silently current), reusing this build's does not."""
+    import warnings
+
+    from evertgym.scoring import StaleResultsWarning
+    from evertgym.scoring.provenance import code_fingerprint, run_metadata
+
+    specs = make_specs(3)
+    with ResultStore(tmp_path / "s.sqlite") as store:
+        run_trials(specs[:2], fake_trial, store, backend="serial", progress=False)
+        assert set(store.fingerprints(s.key for s in specs[:2]).values()) == {code_fingerprint()}
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", StaleResultsWarning)
+            run_trials(specs[:2], fake_trial, store, backend="serial", progress=False)
+        store.add(specs[2], fake_trial(specs[2]), meta={**run_metadata(), "code_fingerprint": "0123456789abcdef"})
+        with pytest.warns(StaleResultsWarning, match="1 of the 3 stored trials"):
+            recs = run_trials(specs, fake_trial, store, backend="serial", progress=False)
+        assert store.fingerprints([specs[2].key]) == {specs[2].key: "0123456789abcdef"}  # reused, not rerun
+    assert len(recs) == 3
+
+
 def test_runner_rejects_bad_arguments(tmp_path):
     specs = make_specs(2)
     with ResultStore(tmp_path / "s.sqlite") as store:

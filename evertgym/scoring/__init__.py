@@ -16,7 +16,7 @@ function and does not import it.
 
 from evertgym.scoring.backends import BACKENDS, Outcome, TrialFn, available_cpus
 from evertgym.scoring.provenance import run_metadata
-from evertgym.scoring.runner import TrialFailure, TrialsFailed, run_trials
+from evertgym.scoring.runner import StaleResultsWarning, TrialFailure, TrialsFailed, run_trials
 from evertgym.scoring.spec import (
     REQUIRED_RESULT_KEYS,
     TrialResult,
@@ -34,6 +34,7 @@ __all__ = [
     "REQUIRED_RESULT_KEYS",
     "Outcome",
     "ResultStore",
+    "StaleResultsWarning",
     "TrialFailure",
     "TrialFn",
     "TrialRecord",

@@ -6,6 +6,8 @@ remote Dask cluster the workers are assumed to run the same environment.
 
 from __future__ import annotations
 
+import functools
+import hashlib
 import os
 import platform
 import subprocess
@@ -54,6 +56,23 @@ def _git_revision() -> dict[str, Any] | None:
     return {"commit": head, "dirty": bool(status.strip())}
 
 
+@functools.cache
+def code_fingerprint() -> str:
+    """SHA-256 (first 16 hex digits) of the installed evertgym's Python sources, data files
+    and env presets: two runs with the same fingerprint ran the same simulator."""
+    import evertgym
+    from evertgym.env.presets import preset_files
+
+    pkg = Path(evertgym.__file__).resolve().parent
+    files = sorted(p for p in pkg.rglob("*") if p.is_file() and p.suffix in (".py", ".json", ".toml"))
+    files += sorted(Path(p).resolve() for p in preset_files().values())
+    digest = hashlib.sha256()
+    for f in dict.fromkeys(files):
+        digest.update(f.name.encode())
+        digest.update(f.read_bytes())
+    return digest.hexdigest()[:16]
+
+
 def run_metadata(**extra: Any) -> dict[str, Any]:
     """Metadata of the current run: a fresh ``run_id``, start time, command line, versions, platform.
 
@@ -68,6 +87,7 @@ def run_metadata(**extra: Any) -> dict[str, Any]:
         "cwd": os.getcwd(),
         "versions": versions,
         "git": _git_revision(),
+        "code_fingerprint": code_fingerprint(),
         "platform": platform.platform(),
         "hostname": platform.node(),
         **extra,

@@ -17,7 +17,7 @@ from typing import Iterable
 from tqdm import tqdm
 
 from evertgym.scoring.backends import BACKENDS, TrialFn, available_cpus
-from evertgym.scoring.provenance import run_metadata
+from evertgym.scoring.provenance import code_fingerprint, run_metadata
 from evertgym.scoring.spec import TrialResultError, TrialSpec
 from evertgym.scoring.store import ResultStore, TrialRecord
 
@@ -66,6 +66,20 @@ def _check_specs(specs: Iterable[TrialSpec]) -> list[TrialSpec]:
     return specs
 
 
+class StaleResultsWarning(UserWarning):
+    """Stored trials that a resumed run reuses were computed by another build of evertgym."""
+
+
+def _warn_if_stale(store: ResultStore, reused: list[str]) -> None:
+    now = code_fingerprint()
+    stale = [k for k, fp in store.fingerprints(reused).items() if fp != now]
+    if stale:
+        warnings.warn(StaleResultsWarning(
+            f"{len(stale)} of the {len(reused)} stored trials reused from {store.path} were computed by another build "
+            f"of evertgym (code fingerprint now {now}); their results are reused as they are: use a new store "
+            "(--db) to recompute them"), stacklevel=3)
+
+
 def run_trials(
     specs: Iterable[TrialSpec],
     trial_fn: TrialFn,
@@ -107,6 +121,7 @@ def run_trials(
 
     done = store.done_keys()
     todo = [s for s in specs if s.key not in done]
+    _warn_if_stale(store, [s.key for s in specs if s.key in done])
     failures: list[TrialFailure] = []
     if todo:
         n_workers = (

@@ -111,6 +111,18 @@ class ResultStore:
     def __len__(self) -> int:
         return self._db.execute("SELECT COUNT(*) FROM trials").fetchone()[0]
 
+    def fingerprints(self, keys: Iterable[str]) -> dict[str, str | None]:
+        """The ``code_fingerprint`` of the run that computed each stored trial of ``keys``
+        (None where the run did not record one)."""
+        keys = list(keys)
+        out: dict[str, str | None] = {}
+        for i in range(0, len(keys), _CHUNK):
+            chunk = keys[i:i + _CHUNK]
+            rows = self._db.execute(
+                f"SELECT key, meta_json FROM trials WHERE key IN ({','.join('?' * len(chunk))})", chunk)
+            out.update((k, json.loads(m).get("code_fingerprint")) for k, m in rows)
+        return out
+
     def done_keys(self) -> set[str]:
         """Keys of every stored trial."""
         return {k for (k,) in self._db.execute("SELECT key FROM trials")}
