@@ -36,20 +36,14 @@ Examples are derandomized (the same ones every run, from a hash of the test) and
 database is kept, so CI sees exactly what a developer sees.  Statistics per family:
 ``--hypothesis-show-statistics``.
 
-Known defects.  The regression tests at the end reproduce the defects these properties
-found (see their docstrings); each is marked ``xfail(strict=True)`` while the defect stands,
-so a fix shows up as an XPASS that fails until its marker is removed.  A property that a
-present defect breaks (probed by running its reproduction once per session) is reported as
-xfail without being run, so the suite stays usable meanwhile and runs each property again by
-itself once its defects are gone; ``EVERTGYM_STRESS_STRICT=1`` runs them regardless.
+Defects.  The regression tests at the end reproduce the simulator defects these properties
+found (see their docstrings); all are fixed, and each test keeps its reproduction.
 """
 
 from __future__ import annotations
 
-import functools
 import gc
 import math
-import os
 import re
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -83,27 +77,12 @@ INSTABILITY_SETTINGS = re.compile(r"\b(dt_s|inertia_factor|iterations)\b")
 RIGID_FAMILIES = ("straight", "ubend", "bend", "sbend", "tortuous")
 FAMILIES = RIGID_FAMILIES + ("colon",)
 
-# the one function-scoped fixture, unless_defects, runs before the examples and holds no state
-_COMMON = dict(deadline=None, derandomize=True, database=None,
-               suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+_COMMON = dict(deadline=None, derandomize=True, database=None, suppress_health_check=[HealthCheck.too_slow])
 FAST = settings(max_examples=10, **_COMMON)
 FAST_HOLD = settings(max_examples=3, **_COMMON)
 #: 6 x 300 + 5 x 80 = 2200 examples in the slow suite.
 SLOW = settings(max_examples=300, **_COMMON)
 SLOW_HOLD = settings(max_examples=80, **_COMMON)
-
-
-#: The families of each property with the known defects that break it (see the end).
-RUN_CASES = [(f, () if f == "colon" else ("tip radius at band exit",)) for f in FAMILIES]
-HOLD_CASES = [(f, ("tip radius at band exit", "kick at rest")) for f in RIGID_FAMILIES]
-
-
-@pytest.fixture
-def unless_defects(defects: tuple[str, ...]) -> None:
-    """Report the test as xfail, without running it, while any of its known ``defects`` is
-    present (:func:`defects_present`, at the end); ``EVERTGYM_STRESS_STRICT=1`` runs it anyway."""
-    if not os.environ.get("EVERTGYM_STRESS_STRICT") and defects_present(*defects):
-        pytest.xfail("known simulator defect present (see the regression tests): " + ", ".join(defects))
 
 
 # ---- strategies ---------------------------------------------------------------------
@@ -324,37 +303,33 @@ def hold_case(data: st.DataObject, family: str) -> tuple[TubeDesign, dict]:
     return design, data.draw(scene_specs(family, design))
 
 
-@pytest.mark.parametrize("family, defects", RUN_CASES, ids=[c[0] for c in RUN_CASES])
-@pytest.mark.usefixtures("unless_defects")
+@pytest.mark.parametrize("family", FAMILIES)
 @FAST
 @given(data=st.data())
-def test_random_runs_stay_finite_inside_and_calm(family, defects, data):
+def test_random_runs_stay_finite_inside_and_calm(family, data):
     check_scenario(data.draw(scenarios(family, (1.0, 2.0))))
 
 
-@pytest.mark.parametrize("family, defects", HOLD_CASES, ids=[c[0] for c in HOLD_CASES])
-@pytest.mark.usefixtures("unless_defects")
+@pytest.mark.parametrize("family", RIGID_FAMILIES)
 @FAST_HOLD
 @given(data=st.data())
-def test_kinetic_energy_does_not_grow_over_a_hold_at_8kpa(family, defects, data):
+def test_kinetic_energy_does_not_grow_over_a_hold_at_8kpa(family, data):
     check_hold(*hold_case(data, family))
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("family, defects", RUN_CASES, ids=[c[0] for c in RUN_CASES])
-@pytest.mark.usefixtures("unless_defects")
+@pytest.mark.parametrize("family", FAMILIES)
 @SLOW
 @given(data=st.data())
-def test_random_runs_stay_finite_inside_and_calm_slow(family, defects, data):
+def test_random_runs_stay_finite_inside_and_calm_slow(family, data):
     check_scenario(data.draw(scenarios(family, (1.0, 3.0))))
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("family, defects", HOLD_CASES, ids=[c[0] for c in HOLD_CASES])
-@pytest.mark.usefixtures("unless_defects")
+@pytest.mark.parametrize("family", RIGID_FAMILIES)
 @SLOW_HOLD
 @given(data=st.data())
-def test_kinetic_energy_does_not_grow_over_a_hold_at_8kpa_slow(family, defects, data):
+def test_kinetic_energy_does_not_grow_over_a_hold_at_8kpa_slow(family, data):
     check_hold(*hold_case(data, family))
 
 
@@ -390,7 +365,6 @@ def test_ten_simulated_minutes_do_not_grow_memory(spec, design):
 
 
 # ---- the defects these properties found: reproductions and regression tests --------------
-# (how they interact with the properties: see "Known defects" in the module docstring)
 
 
 def joint_gaps(sim: EversionSim) -> np.ndarray:
@@ -467,24 +441,6 @@ def drift_after_rest() -> tuple[float, float]:
             now = sim.centreline()
             drift = max(drift, float(np.max(np.hypot(*(now[: len(line)] - line).T))))
     return rested_at, drift
-
-
-#: The known defects: name -> whether its reproduction shows it.
-DEFECT_PROBES: dict[str, Callable[[], bool]] = {
-    "tip radius at band exit": lambda: band_exit_overlap_m() > 0.0,
-    "kick at rest": lambda: drift_after_rest()[1] > 0.0,
-}
-
-
-@functools.cache
-def defect_present(name: str) -> bool:
-    """Whether the known defect ``name`` is present in the simulator (probed once per session)."""
-    return DEFECT_PROBES[name]()
-
-
-def defects_present(*names: str) -> bool:
-    """Whether any of the named known defects is present."""
-    return any(defect_present(name) for name in names)
 
 
 @pytest.mark.parametrize("heading_deg", [30.0, 90.0, 180.0])

@@ -51,15 +51,15 @@ def evaluate(policies: list[str | dict], env_id: str, episodes: int, env_kwargs:
     if not (isinstance(workers, int) and workers >= 1):
         raise ValueError(f"workers = {workers!r} is out of range: allowed integers >= 1")
     seeds = [seed_base + i for i in range(episodes)]
-    chunks = [seeds[k::workers] for k in range(workers) if seeds[k::workers]]
+    size = -(-episodes // workers)  # contiguous chunks: concatenated, they are in seed order
+    chunks = [seeds[k:k + size] for k in range(0, episodes, size)]
     if len(chunks) > 1:
         import multiprocessing as mp
         from concurrent.futures import ProcessPoolExecutor
 
         with ProcessPoolExecutor(len(chunks), mp_context=mp.get_context("spawn"), initializer=_worker_init) as pool:
             futures = [[pool.submit(_run_episodes, desc, env_id, env_kwargs, c) for c in chunks] for desc in policies]
-            per_policy = [dict(zip((s for c in chunks for s in c), (i for f in fs for i in f.result()))) for fs in futures]
-        results = [[by_seed[s] for s in seeds] for by_seed in per_policy]
+            results = [[info for f in fs for info in f.result()] for fs in futures]
     else:
         results = [_run_episodes(desc, env_id, env_kwargs, seeds) for desc in policies]
     rows = []

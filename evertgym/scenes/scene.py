@@ -253,47 +253,36 @@ class Scene:
         """
         handles = SceneHandles()
         last = min(self.compliant_start + 1, len(self.arclength))  # the static part shares its end vertex
-        body = space.static_body
-        for side, wall in enumerate(self.walls):
-            if last < 2:
-                continue
-            part = wall[:last]
-            sign = 1.0 if side == 0 else -1.0
-            shell = part + sign * polyline_normals(part) * self.wall_radius
-            pts = shell[simplify(shell, STATIC_WALL_TOLERANCE)]
-            segs = [style_wall_shape(pymunk.Segment(body, tuple(pts[i]), tuple(pts[i + 1]), self.wall_radius))
-                    for i in range(len(pts) - 1)]
-            for seg in segs:  # a family may declare its wall material's friction factor
-                seg.friction = float(self.params.get("wall_friction", seg.friction))
-            space.add(*segs)
-            handles.shapes += segs
+        handles.shapes += self._build_static_shell(space, slice(0, last), self.wall_radius)
+        if "wall_friction" in self.params:  # a family may declare its wall material's friction factor
+            for seg in handles.shapes:
+                seg.friction = float(self.params["wall_friction"])
         if self.compliant:
             net = self.wall_network()
             factor = 1.0 if dt is None else 1.0 / space.damping**dt
             handles.bodies, shapes, handles.springs = net.build(space, factor)
             handles.shapes += shapes
             handles.network = net
-            handles.backstop = self._build_backstop(space, net.mechanics.max_travel_m)
+            # The backstop: static walls the tether travel plus a wall thickness behind the
+            # compliant walls.  A tethered piece's centre moves at most its travel, but a piece
+            # pushed at one end also turns about it, and two turned neighbours open a gap that
+            # a robot pushed at 8 kPa escapes through.  Only the robot touches the backstop (the
+            # pieces pass it): the channel widens by at most the travel, wherever it is pushed.
+            handles.backstop = self._build_static_shell(
+                space, slice(self.compliant_start, None), net.mechanics.max_travel_m + 3.0 * self.wall_radius)
             handles.shapes += handles.backstop
         return handles
 
-    def _build_backstop(self, space: pymunk.Space, travel: float) -> list[pymunk.Shape]:
-        """Static walls ``travel`` (m) plus a wall thickness behind the compliant walls.
-
-        A tethered piece's centre moves at most ``travel``, but a piece pushed at one end
-        also turns about it, and two turned neighbours open a gap in the wall that a robot
-        pushed at 8 kPa escapes through.  The backstop (only the robot touches it; the wall
-        pieces pass it) bounds the lumen the way the tethers mean to: the channel widens by at
-        most ``travel`` on each side, wherever the robot pushes.
-        """
-        first = self.compliant_start
-        if len(self.arclength) - first < 2:
-            return []
-        shapes = []
+    def _build_static_shell(self, space: pymunk.Space, part: slice, offset: float) -> list[pymunk.Shape]:
+        """Static wall segments (radius ``wall_radius``) along both walls' samples ``part``,
+        their centre line ``offset`` (m) outside the lumen surface; none for fewer than 2 samples."""
+        shapes: list[pymunk.Shape] = []
         for side, wall in enumerate(self.walls):
-            part = wall[first:]
+            pts = wall[part]
+            if len(pts) < 2:
+                continue
             sign = 1.0 if side == 0 else -1.0
-            shell = part + sign * polyline_normals(part) * (travel + 3.0 * self.wall_radius)
+            shell = pts + sign * polyline_normals(pts) * offset
             pts = shell[simplify(shell, STATIC_WALL_TOLERANCE)]
             segs = [style_wall_shape(pymunk.Segment(space.static_body, tuple(pts[i]), tuple(pts[i + 1]), self.wall_radius))
                     for i in range(len(pts) - 1)]

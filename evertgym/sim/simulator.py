@@ -179,8 +179,9 @@ class EversionSim:
         inertia, mass = segment_inertia(self.cfg, k, ks, self.ds)
         return mass, inertia
 
-    def _add_segment(self, j: int, length: float, origin: np.ndarray, angle: float) -> None:
-        """Segment ``j`` from node ``j`` (world point ``origin``) at ``angle``, joined to the previous body."""
+    def _add_segment(self, j: int, length: float, origin: np.ndarray, angle: float, radius: float | None = None) -> None:
+        """Segment ``j`` from node ``j`` (world point ``origin``) at ``angle``, joined to the
+        previous body; its collision ``radius`` (m) defaults to its material's envelope."""
         mass, inertia = self._mass_props(j)
         body = pymunk.Body(mass, inertia)
         # the centre of gravity first: setting it later moves the body origin.  It stays
@@ -188,7 +189,9 @@ class EversionSim:
         body.center_of_gravity = (self.ds / 2, 0.0)
         body.angle = angle  # before the position: turning keeps the centre of gravity fixed
         body.position = tuple(origin)
-        shape = pymunk.Segment(body, (0.0, 0.0), (length, 0.0), self._radius_between(self.nodes[j], self.nodes[j] + length))
+        if radius is None:
+            radius = self._radius_between(self.nodes[j], self.nodes[j] + length)
+        shape = pymunk.Segment(body, (0.0, 0.0), (length, 0.0), radius)
         shape.friction = self.cfg.tip_friction  # the newest segment is the tip
         shape.elasticity = 0.0
         shape.collision_type = ROBOT_COLLISION_TYPE
@@ -350,8 +353,7 @@ class EversionSim:
             sh.friction = self.cfg.wall_friction  # no longer the tip: laid down
             body = self.bodies[-1]
             origin = np.array(body.local_to_world((self.ds, 0.0)))
-            self._add_segment(j + 1, seg - self.ds, origin, body.angle)
-            self.shapes[-1].unsafe_set_radius(self._tip_radius(r_old, self.nodes[j + 1], dl))
+            self._add_segment(j + 1, seg - self.ds, origin, body.angle, self._tip_radius(r_old, self.nodes[j + 1], dl))
             nb = self.bodies[-1]
             nb.velocity = body.velocity_at_local_point((self.ds, 0.0))
             nb.angular_velocity = body.angular_velocity
