@@ -36,8 +36,9 @@ def make_trial_env(spec: TrialSpec) -> EversionEnv:
     )
 
 
-def run_trial(spec: TrialSpec) -> dict:
-    """Run one trial; the result has the keys of ``REQUIRED_RESULT_KEYS`` and more."""
+def play_trial(spec: TrialSpec) -> tuple[EversionEnv, dict, list[tuple[float, float]]]:
+    """Play one trial to its end; returns the finished environment (its ``sim`` holds the
+    final state), the last step's info and the (insertion mm, pressure kPa) trace."""
     from evertgym.agents.policies import make_policy
 
     env = make_trial_env(spec)
@@ -54,7 +55,12 @@ def run_trial(spec: TrialSpec) -> dict:
         at_max = sim.regulator.command >= getattr(policy, "max_command_pa", 8000.0) - 1e-6 or policy.name == "constant"
         stalled_at_max = stalled_at_max + env.control_dt if (sim.stalled and at_max) else 0.0
         if term or trunc or stalled_at_max >= GIVE_UP_S:
-            break
+            return env, info, pressures
+
+
+def run_trial(spec: TrialSpec) -> dict:
+    """Run one trial; the result has the keys of ``REQUIRED_RESULT_KEYS`` and more."""
+    env, info, pressures = play_trial(spec)
     stall_events = [e for e in env.sim.events if e.kind == "stall"]
     return {
         "success": bool(info["success"]),

@@ -249,6 +249,11 @@ class EversionSim:
         phi = self.joint_angles(start)
         return joint_moment(phi, self._k_now[start : start + len(phi)], self._mw_now[start : start + len(phi)])
 
+    def collapse_moments(self, start: int = 0) -> np.ndarray:
+        """Collapse (kink) moment ``M_c = p pi r^3`` (N m) of joints ``start..`` at the applied
+        pressure; ``joint_moments() / collapse_moments()`` is each joint's distance to kinking."""
+        return 2.0 * self._mw_now[start : len(self.bodies)]
+
     def _update_joint_law(self) -> None:
         """Secant stiffness of the active joints from the non-linear law; kink events."""
         a = self.active_start
@@ -402,6 +407,12 @@ class EversionSim:
     def _required_pressure(self, p_y: float, area: float) -> float:
         tail = tail_weight_pressure(self.design.diameter_m, self.design.wall_thickness_m, self.length) if self.vertical_tail else 0.0
         return self.growth.required_pressure(p_y, self.tip_force, area, self._turning, tail)
+
+    def required_pressure(self) -> float:
+        """Pressure (Pa) the tip needs to grow now: its material's eversion threshold plus the
+        bend losses and the wall's reaction against growth; below it the robot stalls."""
+        p_y, area = self._tip_threshold()
+        return self._required_pressure(p_y, area)
 
     def _freeze_check(self) -> None:
         """Move resting segments far behind the tip out of the active set.
