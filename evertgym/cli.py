@@ -238,7 +238,10 @@ def cmd_reproduce_ubend(args: argparse.Namespace) -> int:
     if args.plot:
         plot_ubend(result, args.plot)
     if args.json:
-        print(json.dumps({"rows": result["rows"]}))
+        out = {"rows": result["rows"]}
+        if args.anatomy:
+            out["jam_anatomy"] = result["jams"]
+        print(json.dumps(out))
         return 0
     radii = sorted({r["radius_mm"] for r in result["rows"]}, reverse=True)
     reds = sorted({r["reduction"] for r in result["rows"]})
@@ -250,6 +253,11 @@ def cmd_reproduce_ubend(args: argparse.Namespace) -> int:
         name = "no bands" if red == 0 else f"3 x {round(red * 100)}%"
         print(f"{name:>10} " + " ".join(f"{c['successes']:>3}/{c['trials']:<2}" for c in cells) + f" {sum(c['successes'] for c in cells):>6}")
     print(f"time: {result['wall_s']:.1f} s (store: {args.db})")
+    if args.anatomy:
+        from evertgym.scoring.paper import ubend_jam_table
+
+        print("\nWhere the failed trials jammed (medians; docs/scoring.md explains the columns):\n")
+        print(ubend_jam_table(result["jams"]), end="")
     return 0
 
 
@@ -415,6 +423,9 @@ def build_parser() -> argparse.ArgumentParser:
     ru.add_argument("--backend", choices=["process", "serial", "dask"], default="process")
     ru.add_argument("--workers", type=int, default=None)
     ru.add_argument("--plot", default=None, help="write the success-rate plot (PNG) here")
+    ru.add_argument("--anatomy", action="store_true",
+                    help="also where the failed trials jammed (free span, tip angle, M/Mc at the bands); "
+                         "--json adds it under 'jam_anatomy'")
     ru.set_defaults(func=cmd_reproduce_ubend)
 
     rc = rep_sub.add_parser("colon", help="colon phantom case study (Fig. 5d)")

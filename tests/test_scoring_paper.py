@@ -90,6 +90,24 @@ def test_reproduce_ubend_json_contract(tmp_path, capsys):
         assert set(r) == {"reduction", "radius_mm", "trials", "successes"}
         assert r["trials"] == 1 and r["successes"] in (0, 1)
     assert {r["reduction"] for r in out["rows"]} == {0.0, 0.1, 0.2, 0.3}
+    assert set(out) == {"rows"}
+    # --anatomy adds the failed trials' jam anatomy from the same store, without rerunning
+    assert main(["reproduce", "ubend", "--json", "--anatomy", "--trials", "1", "--db", str(tmp_path / "u.sqlite"), "--backend", "serial"]) == 0
+    with_jams = json.loads(capsys.readouterr().out)
+    assert with_jams["rows"] == out["rows"]
+    jams = {(r["reduction"], r["radius_mm"]): r for r in with_jams["jam_anatomy"]}
+    assert len(jams) == 36
+    for r in out["rows"]:
+        j = jams[(r["reduction"], r["radius_mm"])]
+        assert j["jams"] == r["trials"] - r["successes"]
+        if j["jams"]:  # every jam is a tangent chord from the inner wall to the outer
+            inner, outer = r["radius_mm"] + 20.0, r["radius_mm"] + 35.0
+            assert j["jam_free_span_mm"] == pytest.approx(math.sqrt(outer**2 - inner**2), abs=8.0)
+        else:
+            assert j["jam_free_span_mm"] is None
+    assert main(["reproduce", "ubend", "--anatomy", "--trials", "1", "--db", str(tmp_path / "u.sqlite"), "--backend", "serial"]) == 0
+    text = capsys.readouterr().out
+    assert "free span (mm)" in text and "| 3 x 30% | 20 | 0/1 |" in text
 
 
 def test_colon_specs_and_json_contract(tmp_path, capsys):

@@ -82,20 +82,50 @@ def _run(specs, store_path, backend, workers, progress):
         return run_trials(specs, run_trial, store, backend=backend, workers=workers, progress=progress)
 
 
+def _reduction(rec) -> float:
+    return rec.spec.design["bands"][0]["reduction"] if rec.spec.design["bands"] else 0.0
+
+
+def ubend_jam_rows(records) -> list[dict]:
+    """Per design and radius: trials, successes and :func:`~evertgym.scoring.jam.summarise_jams`
+    over the failed trials' jam anatomy."""
+    from evertgym.scoring.jam import summarise_jams
+
+    groups: dict[tuple[float, float], list] = {}
+    for rec in records:
+        groups.setdefault((_reduction(rec), rec.spec.scene["params"]["radius_mm"]), []).append(rec)
+    rows = []
+    for (red, r), recs in sorted(groups.items(), key=lambda kv: (kv[0][0], -kv[0][1])):
+        jams = [rec.result["jam"] for rec in recs if not rec.result["success"] and "jam" in rec.result]
+        rows.append({"reduction": red, "radius_mm": r, "trials": len(recs), "successes": sum(bool(x.result["success"]) for x in recs), **summarise_jams(jams)})
+    return rows
+
+
 def reproduce_ubend(store_path: str | Path, trials: int = 12, backend: str = "process", workers: int | None = None, progress: bool = True) -> dict:
-    """Run (or resume) the U-bend table; the ``--json`` structure of ``evertgym reproduce ubend``."""
+    """Run (or resume) the U-bend table; ``rows`` is the ``--json`` structure of
+    ``evertgym reproduce ubend``, ``jams`` the anatomy of its failed trials per row."""
     t0 = time.perf_counter()
     records = _run(ubend_specs(trials), store_path, backend, workers, progress)
     counts: dict[tuple[float, float], list[int]] = {}
     for rec in records:
-        red = rec.spec.design["bands"][0]["reduction"] if rec.spec.design["bands"] else 0.0
-        r = rec.spec.scene["params"]["radius_mm"]
-        c = counts.setdefault((red, r), [0, 0])
+        c = counts.setdefault((_reduction(rec), rec.spec.scene["params"]["radius_mm"]), [0, 0])
         c[0] += 1
         c[1] += int(rec.result["success"])
     rows = [{"reduction": red, "radius_mm": r, "trials": n, "successes": k} for (red, r), (n, k) in counts.items()]
     rows.sort(key=lambda x: (x["reduction"], -x["radius_mm"]))
-    return {"rows": rows, "wall_s": time.perf_counter() - t0}
+    return {"rows": rows, "jams": ubend_jam_rows(records), "wall_s": time.perf_counter() - t0}
+
+
+UBEND_JAM_LEAD = (("design", "design"), ("radius mm", "radius_mm"), ("passed", "passed"))
+
+
+def ubend_jam_table(jam_rows: list[dict]) -> str:
+    """The markdown table of :func:`ubend_jam_rows`."""
+    from evertgym.scoring.jam import jam_table
+
+    named = [{**r, "design": "no bands" if r["reduction"] == 0 else f"3 x {round(r['reduction'] * 100)}%",
+              "passed": f"{r['successes']}/{r['trials']}", "radius_mm": f"{r['radius_mm']:g}"} for r in jam_rows]
+    return jam_table(named, UBEND_JAM_LEAD)
 
 
 def reproduce_colon(store_path: str | Path, backend: str = "serial", progress: bool = False) -> dict:

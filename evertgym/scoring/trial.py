@@ -10,7 +10,8 @@ robot's start).  ``TrialSpec.policy`` names a policy: ``{"name": "constant",
 
 A trial ends at the goal (success), at full length, at the time limit, or early once
 the robot has been stalled for ``give_up_s`` with the policy at its highest pressure
-(the outcome can no longer change).
+(the outcome can no longer change).  A failed trial's result also holds ``jam``, the
+:func:`~evertgym.scoring.jam.jam_anatomy` of the robot where it stopped.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from evertgym.env import EversionEnv
+from evertgym.scoring.jam import jam_anatomy
 from evertgym.scoring.spec import TrialSpec
 
 GIVE_UP_S = 2.0
@@ -62,7 +64,7 @@ def run_trial(spec: TrialSpec) -> dict:
     """Run one trial; the result has the keys of ``REQUIRED_RESULT_KEYS`` and more."""
     env, info, pressures = play_trial(spec)
     stall_events = [e for e in env.sim.events if e.kind == "stall"]
-    return {
+    result = {
         "success": bool(info["success"]),
         "time_s": float(info["time_s"]),
         "peak_pressure_kpa": float(info["peak_pressure_kpa"]),
@@ -74,3 +76,6 @@ def run_trial(spec: TrialSpec) -> dict:
         "pressure_position": [[round(x, 1), round(p, 3)] for x, p in pressures[:: max(1, len(pressures) // 60)]],
         "scene_params": {k: v for k, v in env.scene.params.items() if isinstance(v, (int, float, str, bool))},
     }
+    if not info["success"]:  # where and why it stopped (evertgym.scoring.jam)
+        result["jam"] = jam_anatomy(env.sim, env.scene)
+    return result
