@@ -270,13 +270,19 @@ def cmd_reproduce_colon(args: argparse.Namespace) -> int:
 
         plot_pressure_position(result["rows"], args.plot)
     if args.json:
-        print(json.dumps({"rows": [{k: r[k] for k in ("reduction", "passed", "stall_position_mm", "peak_pressure_kpa")} for r in result["rows"]]}))
+        keys = ("reduction", "passed", "stall_position_mm", "peak_pressure_kpa") + (("jam",) if args.anatomy else ())
+        print(json.dumps({"rows": [{k: r[k] for k in keys} for r in result["rows"]]}))
         return 0
     print("Colon phantom, operator protocol (2 kPa, +0.5 kPa per 1 s stall, up to 8 kPa)")
     for r in result["rows"]:
         name = "no bands" if r["reduction"] == 0 else f"3 x {round(r['reduction'] * 100)}%"
         stall = "-" if r["stall_position_mm"] is None else f"{r['stall_position_mm']:.0f} mm"
         print(f"{name:>10}: passed={r['passed']} stall={stall} peak={r['peak_pressure_kpa']:.2f} kPa")
+        if args.anatomy and r["jam"]:
+            j = r["jam"]
+            print(f"{'':>12}jam: tip {j['heading_error_deg']:+.1f} deg off the channel, wall pushes back {j['tip_axial_force_n']:.2f} N "
+                  f"along the tip, free span {j['free_span_mm']:.1f} mm, span max M/Mc {j['span_peak_moment_ratio']:.2f}, "
+                  f"pressure margin {j['pressure_margin_kpa']:+.2f} kPa")
     return 0
 
 
@@ -432,6 +438,7 @@ def build_parser() -> argparse.ArgumentParser:
     rc.add_argument("--json", action="store_true")
     rc.add_argument("--db", default="runs/reproduce_colon.sqlite")
     rc.add_argument("--plot", default=None, help="write the pressure-position plot (PNG) here")
+    rc.add_argument("--anatomy", action="store_true", help="also where a stalled robot jammed (--json: each row's 'jam')")
     rc.set_defaults(func=cmd_reproduce_colon)
 
     rv = rep_sub.add_parser("eversion", help="Exp 4: minimum eversion pressure per band reduction, simulated")

@@ -123,6 +123,15 @@ def test_colon_specs_and_json_contract(tmp_path, capsys):
     # the paper's case study: the bare robot stalls at the bend even at 8 kPa...
     assert not bare["passed"] and bare["peak_pressure_kpa"] == pytest.approx(8.0)
     assert 360.0 <= bare["stall_position_mm"] <= 460.0  # the bend starts at 360 mm
+    # --anatomy adds each row's jam (None for a pass), read from the same store
+    assert main(["reproduce", "colon", "--json", "--anatomy", "--db", str(tmp_path / "c.sqlite")]) == 0
+    rows = json.loads(capsys.readouterr().out)["rows"]
+    jam = rows[0]["jam"]
+    assert {k: v for k, v in rows[0].items() if k != "jam"} == bare
+    # the bare robot is wedged against the bend's outer wall: the wall pushes back along the
+    # tip harder than 8 kPa can push (p pi r^2 = 2.5 N for the 20 mm robot)
+    assert jam["tip_axial_force_n"] > 8000.0 * math.pi * 0.01**2
+    assert jam["pressure_margin_kpa"] < 0.0 and jam["heading_error_deg"] < 0.0
 
 
 @pytest.mark.xfail(strict=True, reason="open (issue 6): the banded robot also stalls at the colon bend")

@@ -141,6 +141,7 @@ def reproduce_colon(store_path: str | Path, backend: str = "serial", progress: b
                 "stall_position_mm": rec.result["stall_position_mm"],
                 "peak_pressure_kpa": rec.result["peak_pressure_kpa"],
                 "pressure_position": rec.result.get("pressure_position", []),
+                "jam": rec.result.get("jam"),
             }
         )
     return {"rows": rows}
