@@ -3,6 +3,7 @@
     evertgym reproduce stiffness [--json] [--plot docs/stiffness_fig3.png] [--no-sim]
     evertgym reproduce eversion [--json] [--step-kpa 0.01]
     evertgym bench env [--json] [--steps 500] [--env ID]
+    evertgym bench pool [--trials 16] [--trial-s 0.3] [--real] [--no-dask] [--json]
     evertgym stiffness [--length-mm L] [--bands-from-tip-mm 50,100 --reduction 0.3]
                        [--pressure-kpa 6.9] [--displacement-mm D] [--design FILE] [--json]
 """
@@ -204,6 +205,18 @@ def cmd_bench_peers(args: argparse.Namespace) -> int:
 
     result = compare()
     print(json.dumps(result) if args.json else "\n".join(format_table(result)))
+    return 0
+
+
+def cmd_bench_pool(args: argparse.Namespace) -> int:
+    from evertgym.bench.pool import bench_pool, format_pool
+
+    if args.trials < 1:
+        raise CLIError(f"--trials = {args.trials} is out of range: allowed >= 1")
+    if not 0.01 <= args.trial_s <= 60:
+        raise CLIError(f"--trial-s = {args.trial_s} is out of range: allowed [0.01, 60] s")
+    result = bench_pool(args.trials, args.trial_s, real=args.real, dask=not args.no_dask)
+    print(json.dumps(result) if args.json else "\n".join(format_pool(result)))
     return 0
 
 
@@ -525,6 +538,14 @@ def build_parser() -> argparse.ArgumentParser:
                                             "(pip install -e '.[bench]')")
     bp.add_argument("--json", action="store_true")
     bp.set_defaults(func=cmd_bench_peers)
+    bo = bench_sub.add_parser("pool", help="scoring backends' throughput: serial, process pool (1, 2 workers), Dask; "
+                                           "speed-up against 1 worker")
+    bo.add_argument("--trials", type=int, default=16, help="trials per backend")
+    bo.add_argument("--trial-s", type=float, default=0.3, help="busy-loop trial duration (s)")
+    bo.add_argument("--real", action="store_true", help="real U-bend trials instead of a busy loop")
+    bo.add_argument("--no-dask", action="store_true", help="skip the Dask rows (they need the test or cluster extra)")
+    bo.add_argument("--json", action="store_true")
+    bo.set_defaults(func=cmd_bench_pool)
     be = bench_sub.add_parser("env", help="env steps per second per registered id (random actions, one core)")
     be.add_argument("--steps", type=int, default=500)
     be.add_argument("--env", action="append", help="an env id (repeatable); default: every registered id")
