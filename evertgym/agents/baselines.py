@@ -22,9 +22,10 @@ def pressure_to_action(pressure_kpa: float) -> np.ndarray:
     return np.array([2.0 * pressure_kpa * 1e3 / MAX_PRESSURE_PA - 1.0], dtype=np.float32)
 
 
-def _check(name: str, value: float, lo: float, hi: float, unit: str) -> None:
-    if not (isinstance(value, (int, float)) and math.isfinite(value) and lo <= value <= hi):
-        raise ValueError(f"{name} = {value!r} is out of range: allowed [{lo:g}, {hi:g}] {unit}")
+def _check(name: str, value: float, lo: float, hi: float, unit: str, lo_open: bool = False) -> None:
+    ok = isinstance(value, (int, float)) and math.isfinite(value) and (lo < value if lo_open else lo <= value) and value <= hi
+    if not ok:
+        raise ValueError(f"{name} = {value!r} is out of range: allowed {'(' if lo_open else '['}{lo:g}, {hi:g}] {unit}")
 
 
 class Policy(ABC):
@@ -114,9 +115,7 @@ class PressureCycling(Policy):
     def __post_init__(self) -> None:
         _check("low_kpa", self.low_kpa, 0.0, 8.0, "kPa")
         _check("high_kpa", self.high_kpa, 0.0, 8.0, "kPa")
-        _check("period_s", self.period_s, 0.0, 600.0, "s")
-        if self.period_s <= 0:
-            raise ValueError(f"period_s = {self.period_s!r} is out of range: allowed (0, 600] s")
+        _check("period_s", self.period_s, 0.0, 600.0, "s", lo_open=True)
 
     def reset(self, env) -> None:
         super().reset(env)

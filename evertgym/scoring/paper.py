@@ -106,14 +106,9 @@ def reproduce_ubend(store_path: str | Path, trials: int = 12, backend: str = "pr
     ``evertgym reproduce ubend``, ``jams`` the anatomy of its failed trials per row."""
     t0 = time.perf_counter()
     records = _run(ubend_specs(trials), store_path, backend, workers, progress)
-    counts: dict[tuple[float, float], list[int]] = {}
-    for rec in records:
-        c = counts.setdefault((_reduction(rec), rec.spec.scene["params"]["radius_mm"]), [0, 0])
-        c[0] += 1
-        c[1] += int(rec.result["success"])
-    rows = [{"reduction": red, "radius_mm": r, "trials": n, "successes": k} for (red, r), (n, k) in counts.items()]
-    rows.sort(key=lambda x: (x["reduction"], -x["radius_mm"]))
-    return {"rows": rows, "jams": ubend_jam_rows(records), "wall_s": time.perf_counter() - t0}
+    jams = ubend_jam_rows(records)
+    rows = [{k: j[k] for k in ("reduction", "radius_mm", "trials", "successes")} for j in jams]
+    return {"rows": rows, "jams": jams, "wall_s": time.perf_counter() - t0}
 
 
 UBEND_JAM_LEAD = (("design", "design"), ("radius mm", "radius_mm"), ("passed", "passed"))
