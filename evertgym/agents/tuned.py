@@ -16,7 +16,11 @@ TUNED_PATH = Path(__file__).resolve().parents[2] / "agents" / "tuned_operator.js
 
 
 def load_tuned(path: str | Path | None = None) -> OperatorProtocol:
-    p = Path(path) if path else TUNED_PATH
+    """The tuned operator protocol from ``path`` (default: the shipped ``tuned_operator.json``,
+    from the checkout or the installed wheel)."""
+    from evertgym.agents.load import shipped_dir
+
+    p = Path(path) if path else shipped_dir() / TUNED_PATH.name
     if not p.exists():
         raise ValueError(f"tuned heuristic file {str(p)!r} does not exist: run scripts/tune_operator.py")
     data = json.loads(p.read_text())

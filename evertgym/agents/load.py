@@ -1,0 +1,76 @@
+"""Shipped agents from Python: the ``agents/`` folder, and trained policies by name or path.
+
+The repository's ``agents/`` folder (installed as the package ``evertgym.shipped``) holds
+the training configs, the tuned heuristic's parameters and the small trained policies::
+
+    import gymnasium as gym
+    import evertgym
+    from evertgym.agents import load_policy
+
+    policy, env_id, env_kwargs = load_policy("colon_ppo")
+    env = gym.make(env_id, **env_kwargs)      # the observation the policy was trained on
+    obs, info = env.reset(seed=0)
+    policy.reset(env)
+    obs, reward, terminated, truncated, info = env.step(policy.act(obs, info))
+
+Loading a policy needs the ``rl`` extra (``pip install 'evertgym[rl]'``).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from evertgym.agents.baselines import Policy
+
+#: The repository's agents folder; an installed wheel carries it as ``evertgym.shipped``.
+AGENTS_DIR = Path(__file__).resolve().parents[2] / "agents"
+
+
+def shipped_dir() -> Path:
+    """The folder of shipped configs and policies (a checkout's ``agents/`` or the wheel's copy)."""
+    if (AGENTS_DIR / "tuned_operator.json").is_file():
+        return AGENTS_DIR
+    from importlib.resources import files
+
+    return Path(str(files("evertgym.shipped")))
+
+
+def shipped_policies() -> list[str]:
+    """Names of the shipped trained policies (``load_policy`` accepts each)."""
+    return sorted(p.parent.name for p in shipped_dir().glob("*/final.zip"))
+
+
+def resolve_policy_path(name_or_path: str | Path) -> Path:
+    """``"colon_ppo"`` -> the shipped ``agents/colon_ppo/final.zip``; a run folder -> its
+    ``final.zip``; a ``.zip`` path -> itself.  Raises ``ValueError`` naming the shipped ones."""
+    p = Path(name_or_path)
+    if p.suffix == ".zip" and p.is_file():
+        return p
+    if p.is_dir() and (p / "final.zip").is_file():
+        return p / "final.zip"
+    shipped = shipped_dir() / str(name_or_path) / "final.zip"
+    if shipped.is_file():
+        return shipped
+    raise ValueError(f"policy {str(name_or_path)!r}: neither a saved model (.zip), a run folder with final.zip, "
+                     f"nor a shipped policy; shipped: {shipped_policies()}")
+
+
+def load_policy(name_or_path: str | Path, deterministic: bool | None = None) -> tuple[Policy, str | None, dict]:
+    """A trained policy with the env id and env kwargs it was trained with.
+
+    ``name_or_path`` is a shipped policy's name (:func:`shipped_policies`, e.g.
+    ``"colon_ppo"``), a run folder or a ``.zip``.  Returns ``(policy, env_id, env_kwargs)``:
+    ``gym.make(env_id, **env_kwargs)`` gives the observation the policy expects
+    (``env_id`` is None when no ``<stem>_env.json`` sits beside the model).  The policy
+    has the :class:`~evertgym.agents.baselines.Policy` interface (``reset(env)``,
+    ``act(obs, info)``) and applies the model's VecNormalize statistics itself; its SB3
+    model is ``policy.model``.
+    """
+    from evertgym.agents.policies import SB3Policy
+
+    path = resolve_policy_path(name_or_path)
+    policy = SB3Policy(path, deterministic)
+    meta = path.with_name(path.stem + "_env.json")
+    env_id = json.loads(meta.read_text()).get("env_id") if meta.exists() else None
+    return policy, env_id, dict(policy.env_kwargs)
