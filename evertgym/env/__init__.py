@@ -7,6 +7,8 @@ Importing :mod:`evertgym` registers every preset of the repository's ``envs/`` f
 
 from __future__ import annotations
 
+import math
+
 import gymnasium
 
 from evertgym.env.eversion_env import EversionEnv
@@ -35,7 +37,9 @@ def register_envs() -> list[str]:
     ids = []
     for env_id in preset_files():
         if env_id not in gymnasium.registry:
-            gymnasium.register(id=env_id, entry_point=ENTRY_POINT, kwargs=preset_kwargs(env_id))
+            kw = preset_kwargs(env_id)
+            steps = math.ceil(kw["max_episode_s"] * kw["control_hz"] - 1e-9)
+            gymnasium.register(id=env_id, entry_point=ENTRY_POINT, kwargs=kw, max_episode_steps=steps)
         ids.append(env_id)
     return ids
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import warnings
 from typing import Any
 
 import gymnasium as gym
@@ -11,11 +12,14 @@ from gymnasium import spaces
 
 from evertgym.design import Band, TubeDesign
 from evertgym.env.presets import sample_params
-from evertgym.scenes import SceneSpec, make_scene, render_rgb
+from evertgym.render import FrameRenderer, Overlay
+from evertgym.scenes import SceneSpec, make_scene
 from evertgym.sim import EversionSim, SimConfig
 from evertgym.sim.growth import MAX_PRESSURE_PA
 
 _LOOKAHEAD_M = (0.02, 0.04, 0.06, 0.08, 0.10)
+_CLIP = 10.0  # upper bound of the unbounded ratios (tip force, lumen width)
+_REWARD_TERMS = ("progress", "pressure", "contact", "stall", "success")
 #: Scene seeds drawn for episodes stay below this; evaluation on held-out scenes uses
 #: seeds from here up (``reset(options={"scene_seed": ...})``).
 HELD_OUT_SEED_BASE = 1_000_000_000
@@ -24,52 +28,121 @@ HELD_OUT_SEED_BASE = 1_000_000_000
 class EversionEnv(gym.Env):
     """Grow an eversion robot through a scene by scheduling its pressure.
 
-    **Action** (``Box(-1, 1, (1,))``).  ``action_mode="absolute"``: the pressure command,
-    ``p = (a + 1) / 2 * 8 kPa``.  ``action_mode="increment"``: a change of the command,
-    ``dp = a * max_increment_kpa`` per control step.  Either way the command is clipped to
-    [0, 8] kPa (the seal ruptures above it) and the regulator's lag applies.  A NaN or
-    infinite action raises ``ValueError`` before it reaches the simulation.
+    The robot (a thin-walled inflated tube with constrictive bands) grows from its base at
+    the scene's entry by everting at the tip; the agent sets the pressure command each
+    control step; the tip must reach the scene's goal.  Presets: ``evertgym/UBend-v0``,
+    ``evertgym/Tortuous-v0``, ``evertgym/Colon-v0`` (``docs/envs.md``).
 
-    **Observation** (``Box``, float32), by default only what an operator has: for the
-    current and each of the last ``history`` control steps, the measured pressure / 8 kPa,
-    the insertion length / robot length and the growth speed / the maximum growth speed.
-    ``tip_sensing=True`` appends the tip's axial contact force (/ the tip force at 8 kPa)
-    and a contact flag.  ``scene_ahead=True`` (privileged) appends, at 20, 40, 60, 80 and
-    100 mm ahead of the tip along the channel, the turn of the centreline relative to the
-    tip direction (/ pi) and the lumen width / robot diameter.
+    **Action space** ``Box(-1, 1, (1,), float32)``
 
-    **Reward**, per control step of ``dt = 1 / control_hz``:
+    ==========  ==================================================================  ======
+    action_mode  meaning of ``a``                                                   unit
+    ==========  ==================================================================  ======
+    absolute    pressure command ``p = (a + 1) / 2 * 8``                            kPa
+    increment   change of the command ``dp = a * max_increment_kpa`` per step       kPa
+    ==========  ==================================================================  ======
 
-    * ``progress_weight * ds / 10 mm``: progress of the tip along the channel centreline;
-    * ``- pressure_weight * (p / 8 kPa)^2``: pressure cost (mean over the step);
-    * ``- contact_weight * F_max / 1 N``: the largest tip contact force in the step;
-    * ``- stall_weight`` while the robot is stalled (no growth for ``stall_time_s``);
-    * ``+ success_weight`` once, on reaching the goal.
+    The command is clipped to [0, 8] kPa (the seal ruptures above it); the regulator's lag
+    (``SimConfig.regulator_tau_s``) applies.  A NaN or infinite action raises ``ValueError``.
 
-    **Scenes**: ``reset(seed=...)`` seeds everything drawn for the episode; scene seeds for
-    random families are drawn below :data:`HELD_OUT_SEED_BASE`, and
-    ``reset(options={"scene_seed": s})`` fixes one (evaluation on held-out scenes).
+    **Observation space** ``Box(low, high, (n,), float32)``, ``n = 3 (history + 1)
+    + 2 tip_sensing + 10 scene_ahead``.  By default only what an operator has.  For ``k = 0
+    .. history`` (``k = 0`` the current step, ``k`` steps ago after it), indices ``3 k``,
+    ``3 k + 1``, ``3 k + 2``:
 
-    **Episode end**: ``terminated`` when the tip passes the scene's goal (success), when
-    the robot has fully everted, or on rupture (measured pressure above ``rupture_kpa``;
-    with the default 8 kPa clip it cannot happen; set ``rupture_kpa`` lower to model a
-    weaker seal); ``truncated`` at ``max_episode_s``.  ``info`` carries ``success``,
-    ``peak_pressure_kpa``, ``max_contact_force_n``, ``stall_count``, ``insertion_length_mm``,
-    ``tip_arclength_mm`` and ``time_s``.
+    =====  ============================================  =====================  ======  ======
+    index  observation                                   unit (divided by)      low     high
+    =====  ============================================  =====================  ======  ======
+    3k     measured pressure                             / 8 kPa                0       1
+    3k+1   insertion length (everted length)             / robot length         0       1
+    3k+2   growth speed                                  / max growth speed     0       1
+    =====  ============================================  =====================  ======  ======
 
-    Parameters
-    ----------
-    scene: ``{"family": ..., "params": {...}, "seed": ...}``; params may be distributions
-        (see :mod:`evertgym.env.presets`); seed ``"episode"`` draws one per episode.
-    design: a :class:`TubeDesign` or a design-file dict (mm).
-    band_offset_mm: ``(lo, hi)``: all bands shift by a uniform draw per episode.
-    entry_offset_mm: ``(lo, hi)``: the base starts this far across the channel from its
-        entry point (a uniform draw per episode; the paper varied the robot's start).
-    control_hz, max_episode_s, action_mode, max_increment_kpa, history, tip_sensing,
-    scene_ahead, rupture_kpa: see above.  progress_weight, pressure_weight,
-    contact_weight, stall_weight, success_weight: reward weights.
-    sim_config: a :class:`SimConfig` or a dict of its fields.
-    render_mode: ``"rgb_array"`` or ``"human"``.
+    Then, with ``tip_sensing=True`` (a force sensor at the tip):
+
+    =====  ============================================  =====================  ======  ======
+    +0     tip axial contact force (clipped at 10)       / 8 kPa x tip area     0       10
+    +1     tip in contact with a wall                    flag                   0       1
+    =====  ============================================  =====================  ======  ======
+
+    Then, with ``scene_ahead=True`` (**privileged**: a map of the channel), for each
+    ``d`` in 20, 40, 60, 80, 100 mm ahead of the tip along the centreline, two values:
+
+    =====  ============================================  =====================  ======  ======
+    +2j    turn of the centreline vs tip heading         / pi rad               -1      1
+    +2j+1  lumen width (clipped at 10)                   / robot diameter       0       10
+    =====  ============================================  =====================  ======  ======
+
+    :meth:`observation_names` names every index.
+
+    **Rewards**, per control step of ``dt = 1 / control_hz``; each term is in ``info``:
+
+    ===================  ==============================================================
+    info key             term
+    ===================  ==============================================================
+    reward_progress      ``progress_weight * ds / 10 mm``, tip progress along the centreline
+    reward_pressure      ``- pressure_weight * (p_mean / 8 kPa)^2``, mean pressure in the step
+    reward_contact       ``- contact_weight * F_max / 1 N``, largest tip contact force in the step
+    reward_stall         ``- stall_weight`` while stalled (no growth for ``SimConfig.stall_time_s``)
+    reward_success       ``+ success_weight`` once, on reaching the goal
+    ===================  ==============================================================
+
+    **Starting state**: ``reset(seed=s)`` draws the scene parameters (preset
+    distributions), the scene seed (below :data:`HELD_OUT_SEED_BASE`; fix one with
+    ``reset(options={"scene_seed": k})``, held-out evaluation uses seeds from
+    :data:`HELD_OUT_SEED_BASE` up), the band offset (``band_offset_mm``) and the base's
+    lateral offset at the entry (``entry_offset_mm``).  The robot starts unpressurised,
+    with its first everted segment at the entry, command 0; the history holds copies of
+    the first sample.  The same seed gives the same episode.
+
+    **Episode end**: ``terminated`` when the tip passes the goal (success), when the
+    robot has fully everted, or on rupture (measured pressure above ``rupture_kpa``; with
+    the default 8 kPa clip it cannot happen).  ``truncated`` at ``max_episode_s``; the
+    registered ids also carry ``max_episode_steps = max_episode_s * control_hz`` (pass
+    ``max_episode_steps`` to ``gym.make`` too when overriding ``max_episode_s``).
+
+    **Info** (the same keys from ``reset`` and ``step``): ``success``, ``ruptured``,
+    ``outcome`` (``running``, ``success``, ``stalled``, ``ruptured``, ``everted``,
+    ``time out``), ``time_s``, ``command_kpa``, ``pressure_kpa`` (measured),
+    ``peak_pressure_kpa``, ``insertion_length_mm``, ``max_contact_force_n``,
+    ``stall_count``, the five ``reward_*`` terms (0 at reset) and, **privileged** (needs
+    the channel map), ``tip_arclength_mm`` (tip's progress along the centreline).
+
+    **Arguments**
+
+    ====================  ======================  ==============================================
+    argument              default                 meaning
+    ====================  ======================  ==============================================
+    scene                 ubend, default params   ``{"family", "params", "seed"}``; params may be
+                                                  distributions (:mod:`evertgym.env.presets`);
+                                                  seed ``"episode"`` draws one per episode
+    design                900 mm, 40 mm, no band  :class:`TubeDesign` or a design-file dict (mm)
+    band_offset_mm        (0, 0)                  all bands shift by U(lo, hi) mm per episode
+    entry_offset_mm       (0, 0)                  base starts U(lo, hi) mm across the channel
+    control_hz            10                      control steps per second (0, 1000]
+    max_episode_s         30                      time limit (s), (0, 1e5]
+    action_mode           "absolute"              "absolute" or "increment"
+    max_increment_kpa     1                       increment mode's largest step (kPa), (0, 8]
+    history               4                       past steps in the observation, [0, 100]
+    tip_sensing           False                   append tip force and contact flag
+    scene_ahead           False                   append the channel ahead (privileged)
+    rupture_kpa           8                       rupture pressure (kPa), (0, 1000]
+    progress_weight       1                       reward weight, >= 0
+    pressure_weight       0.05                    reward weight, >= 0
+    contact_weight        0.02                    reward weight, >= 0
+    stall_weight          0.1                     reward weight, >= 0
+    success_weight        10                      reward weight, >= 0
+    sim_config            SimConfig()             a :class:`SimConfig` or a dict of its fields
+    render_mode           None                    "rgb_array" or "human"
+    ====================  ======================  ==============================================
+
+    **Rendering**: ``rgb_array`` frames (480 x 480) from :class:`evertgym.render.FrameRenderer`
+    show the bands as narrowed dark sections, compliant walls where the robot pushed them,
+    and an overlay with time, pressure (measured and command), insertion and outcome.
+    ``human`` shows them in a matplotlib window; without a display it warns once and
+    shows nothing.
+
+    **Version history**: v0 (0.1.0): first release.
     """
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 10}
@@ -136,11 +209,18 @@ class EversionEnv(gym.Env):
         self.metadata = dict(self.metadata, render_fps=int(round(control_hz)))
 
         self.action_space = spaces.Box(-1.0, 1.0, (1,), np.float32)
-        n = 3 * (history + 1) + (2 if tip_sensing else 0) + (2 * len(_LOOKAHEAD_M) if scene_ahead else 0)
-        self.observation_space = spaces.Box(-10.0, 10.0, (n,), np.float32)
+        low, high = [0.0, 0.0, 0.0] * (history + 1), [1.0, 1.0, 1.0] * (history + 1)
+        if tip_sensing:
+            low, high = low + [0.0, 0.0], high + [_CLIP, 1.0]
+        if scene_ahead:
+            low, high = low + [-1.0, 0.0] * len(_LOOKAHEAD_M), high + [1.0, _CLIP] * len(_LOOKAHEAD_M)
+        self._low, self._high = np.array(low, np.float32), np.array(high, np.float32)
+        self.observation_space = spaces.Box(self._low, self._high, dtype=np.float32)
         self.sim: EversionSim | None = None
         self.scene = None
         self._fig = None
+        self._renderer: FrameRenderer | None = None
+        self._headless_warned = False
 
     # ---- episode --------------------------------------------------------------
     def _draw_episode(self, scene_seed: int | None) -> tuple[Any, TubeDesign, np.ndarray]:
@@ -175,6 +255,10 @@ class EversionEnv(gym.Env):
         self._s_tip = self._tip_arclength()
         self._hist = [self._sample()] * (self.history + 1)
         self._success = False
+        self._ruptured = False
+        self._outcome = "running"
+        self._terms = dict.fromkeys(_REWARD_TERMS, 0.0)
+        self._renderer = None
         self.episode_design = design
         return self._obs(), self._info()
 
@@ -202,21 +286,25 @@ class EversionEnv(gym.Env):
         self._s_tip = s_new
         p_mean = p_sum / n
         reached = s_new >= self.scene.goal_arclength
-        reward = (
-            self.w["progress"] * ds / 0.01
-            - self.w["pressure"] * (p_mean / MAX_PRESSURE_PA) ** 2
-            - self.w["contact"] * f_max
-            - (self.w["stall"] if sim.stalled else 0.0)
-        )
-        if reached and not self._success:
-            reward += self.w["success"]
-            self._success = True
+        terms = {
+            "progress": self.w["progress"] * ds / 0.01,
+            "pressure": -self.w["pressure"] * (p_mean / MAX_PRESSURE_PA) ** 2,
+            "contact": -self.w["contact"] * f_max,
+            "stall": -self.w["stall"] if sim.stalled else 0.0,
+            "success": self.w["success"] if reached and not self._success else 0.0,
+        }
+        reward = terms["progress"] + terms["pressure"] + terms["contact"] + terms["stall"] + terms["success"]
+        self._success = self._success or bool(reached)
+        self._terms = terms
         ruptured = sim.pressure > self.rupture_pa
-        terminated = bool(reached or ruptured or sim.length >= sim.design.length_m - 1e-9)
+        self._ruptured = bool(ruptured)
+        everted = sim.length >= sim.design.length_m - 1e-9
+        terminated = bool(reached or ruptured or everted)
         truncated = bool(not terminated and sim.t >= self.max_episode_s - 1e-9)
+        self._outcome = ("success" if reached else "ruptured" if ruptured else "everted" if everted
+                         else "time out" if truncated else "stalled" if sim.stalled else "running")
         self._hist = self._hist[1:] + [self._sample()]
         info = self._info()
-        info["ruptured"] = bool(ruptured)
         if self.render_mode == "human":
             self.render()
         return self._obs(), float(reward), terminated, truncated, info
@@ -246,29 +334,61 @@ class EversionEnv(gym.Env):
                 seg = scene.centreline[i] - scene.centreline[i - 1]
                 turn = (math.atan2(seg[1], seg[0]) - heading + math.pi) % (2 * math.pi) - math.pi
                 parts += [turn / math.pi, float(scene.lumen_at(s)) / sim.design.diameter_m]
-        return np.clip(np.asarray(parts, dtype=np.float32), -10.0, 10.0)
+        return np.clip(np.asarray(parts, dtype=np.float32), self._low, self._high)
+
+    def observation_names(self) -> list[str]:
+        """A name for every observation index (``pressure[t-1]``, ``tip_force``, ``turn@20mm``, ...)."""
+        names = []
+        for k in range(self.history + 1):
+            lag = "t" if k == 0 else f"t-{k}"
+            names += [f"pressure[{lag}]", f"insertion[{lag}]", f"growth_speed[{lag}]"]
+        if self.tip_sensing:
+            names += ["tip_force", "tip_contact"]
+        if self.scene_ahead:
+            for d in _LOOKAHEAD_M:
+                names += [f"turn@{d * 1e3:.0f}mm", f"lumen@{d * 1e3:.0f}mm"]
+        return names
 
     def _info(self) -> dict:
         sim = self.sim
-        return {
+        info = {
             "success": bool(self._success),
+            "ruptured": self._ruptured,
+            "outcome": self._outcome,
+            "time_s": sim.t,
+            "command_kpa": self.command_pa / 1e3,
+            "pressure_kpa": sim.pressure / 1e3,
             "peak_pressure_kpa": sim.peak_pressure / 1e3,
+            "insertion_length_mm": sim.length * 1e3,
             "max_contact_force_n": sim.max_contact_force,
             "stall_count": sim.stall_count,
-            "insertion_length_mm": sim.length * 1e3,
             "tip_arclength_mm": self._s_tip * 1e3,
-            "time_s": sim.t,
         }
+        info.update({f"reward_{k}": float(v) for k, v in self._terms.items()})
+        return info
 
     # ---- rendering -----------------------------------------------------------------
     def render(self):
+        """``rgb_array``: the frame (480, 480, 3) uint8; ``human``: shows it (None)."""
         if self.render_mode is None or self.sim is None:
             return None
-        img = render_rgb(self.scene, self.sim.centreline(), self.sim.design.radius_m)
+        sim = self.sim
+        if self._renderer is None:
+            self._renderer = FrameRenderer(self.scene, handles=sim.scene_handles)
+        overlay = Overlay(sim.t, self.command_pa, sim.pressure, sim.length, sim.design.length_m, self._outcome)
+        bands = [(b.position_m, b.reduction, b.width_m) for b in sim.design.bands]
+        img = self._renderer.frame(sim.centreline(), sim.design.radius_m, bands, sim.scene_handles, overlay)
         if self.render_mode == "rgb_array":
             return img
+        import matplotlib
         import matplotlib.pyplot as plt
 
+        if not _interactive_backend(matplotlib.get_backend()):
+            if not self._headless_warned:
+                warnings.warn(f"render_mode='human': matplotlib backend {matplotlib.get_backend()!r} cannot show a "
+                              "window (no display?); frames are not shown. Use render_mode='rgb_array'.", stacklevel=2)
+                self._headless_warned = True
+            return None
         if self._fig is None:
             plt.ion()
             self._fig, ax = plt.subplots()
@@ -286,6 +406,18 @@ class EversionEnv(gym.Env):
 
             plt.close(self._fig)
             self._fig = None
+
+
+def _interactive_backend(name: str) -> bool:
+    """Whether matplotlib's backend ``name`` can show a window."""
+    try:
+        from matplotlib.backends import BackendFilter, backend_registry
+
+        return name.lower() in backend_registry.list_builtin(BackendFilter.INTERACTIVE)
+    except ImportError:  # matplotlib < 3.9
+        from matplotlib import rcsetup
+
+        return name in rcsetup.interactive_bk
 
 
 def _positive(name: str, value: float, hi: float, unit: str) -> None:
