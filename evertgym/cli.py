@@ -25,6 +25,29 @@ class CLIError(ValueError):
     """A bad flag value; the message names the flag and its allowed range."""
 
 
+class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescriptionHelpFormatter):
+    """Help that shows every option's default and keeps the description's layout."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """An ArgumentParser whose subcommands inherit the defaults-showing help."""
+
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("formatter_class", _HelpFormatter)
+        super().__init__(*args, **kwargs)
+
+
+def _sub(subparsers: argparse._SubParsersAction, name: str, text: str) -> argparse.ArgumentParser:
+    """A subcommand whose one-line help is also its description."""
+    return subparsers.add_parser(name, help=text, description=text.replace("%%", "%"))
+
+
+def _scene_families() -> str:
+    from evertgym.scenes import FAMILIES
+
+    return ", ".join(sorted(FAMILIES))
+
+
 def _float_list(flag: str, text: str) -> list[float]:
     if not text:
         return []
@@ -155,6 +178,7 @@ def cmd_stiffness(args: argparse.Namespace) -> int:
             red = _check("--reduction", args.reduction, 0.0, 0.5999, "(fraction of the diameter, below 0.6)")
             design = design.with_bands_from_tip([b / 1e3 for b in bands], red)
     free_mm = params.free_length_m * 1e3 if args.length_mm is None else args.length_mm
+    free_source = "calibrated (the paper's rig)" if args.length_mm is None else "--length-mm"
     _check("--length-mm", free_mm, 1.0, design.length_m * 1e3, "mm (free length, clamp to tip)")
     rod = tensile_rod(design, pressure_pa, free_mm / 1e3, params)
     sol = rod.solve_lateral_displacement(disp)
@@ -179,6 +203,10 @@ def cmd_stiffness(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(out))
         return 0
+    print(f"free length (clamp to tip): {free_mm:.1f} mm, {free_source}; robot length {design.length_m * 1e3:.0f} mm"
+          + (" (from the design file)" if args.design else ""))
+    if args.design and args.length_mm is None:
+        print("  (the design's own length is not used: pass --length-mm to test another free length)")
     for k, v in out.items():
         print(f"{k:34s} {v:.5g}" if isinstance(v, float) else f"{k:34s} {v}")
     return 0
@@ -232,7 +260,9 @@ def cmd_bench_env(args: argparse.Namespace) -> int:
     if not (1 <= args.steps <= 10**7):
         raise CLIError(f"--steps = {args.steps} is out of range: allowed [1, 1e7]")
     ids = args.env or register_envs()
-    rows = [bench_env(env_id, args.steps) for env_id in ids]
+    from tqdm import tqdm
+
+    rows = [bench_env(env_id, args.steps) for env_id in tqdm(ids, desc="bench env", unit="env", disable=args.json)]
     if args.json:
         print(json.dumps({"rows": rows}))
         return 0
@@ -277,7 +307,7 @@ def cmd_reproduce_ubend(args: argparse.Namespace) -> int:
 def cmd_reproduce_colon(args: argparse.Namespace) -> int:
     from evertgym.scoring.paper import reproduce_colon
 
-    result = reproduce_colon(args.db)
+    result = reproduce_colon(args.db, progress=not args.json)
     if args.plot:
         from evertgym.plots import plot_pressure_position
 
@@ -350,17 +380,26 @@ def cmd_score(args: argparse.Namespace) -> int:
         kw = {"address": args.address} if args.address else {"workers": args.workers}
         records = run_trials(specs, run_trial, store, backend=args.backend, progress=not args.json, **kw)
     rows = summarize(records, by="design_name")
+    policy = _policy_arg(args.policy)
+    policy_text = policy.get("path") or ", ".join([policy["name"]] + [f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"
+                                                                      for k, v in policy.items() if k != "name"])
+    scene_text = f"{args.scene} {json.dumps(params)}" if params else f"{args.scene} (default parameters)"
     if args.plot:
-        plot_summary(rows, args.plot)
+        plot_summary(rows, args.plot, title=f"{scene_text}; policy {policy_text}; "
+                                            f"{args.scenes} scenes x {args.trials} trials per design")
     if args.json:
         print(json.dumps({"rows": rows}, default=float))
         return 0
+    print(f"policy: {policy_text}")
+    print(f"scene:  {scene_text}, seeds 0-{args.scenes - 1}; {args.trials} trials per scene "
+          f"(bands +/- {args.band_jitter_mm:g} mm, entry +/- 5 mm), limit {args.max_s:g} s")
+    print(f"designs: {len(designs)}, {len(specs)} trials in all")
     print(f"{'design':>14} {'n':>5} {'success':>8} {'95% CI':>15} {'time_s':>7} {'peak_kpa':>9} {'max_force_n':>11}   (medians)")
     for r in rows:
         med = lambda k: "-" if r.get(k) is None else f"{r[k]:.2f}"  # noqa: E731
         ci = f"[{r['success_ci_lo']:.2f}, {r['success_ci_hi']:.2f}]"
         print(f"{r['design_name']:>14} {r['n']:>5} {r['success_rate']:>8.2f} {ci:>15} {med('median_time_s'):>7} {med('median_peak_pressure_kpa'):>9} {med('median_max_contact_force_n'):>11}")
-    print(f"store: {args.db}")
+    print(f"store: {args.db}" + (f"; plot: {args.plot}" if args.plot else ""))
     return 0
 
 
@@ -390,8 +429,19 @@ def cmd_optimize(args: argparse.Namespace) -> int:
 def cmd_train(args: argparse.Namespace) -> int:
     from evertgym.agents.train import train
 
-    summary = train(args.config, out_dir=args.out, resume=args.resume, progress=args.progress)
-    print(json.dumps(summary, indent=2))
+    summary = train(args.config, out_dir=args.out, resume=args.resume, progress=args.progress and not args.json)
+    if args.json:
+        print(json.dumps(summary, indent=2))
+        return 0
+    from evertgym.agents.train import load_config
+
+    name = load_config(args.config)["name"]
+    run_dir = Path(args.out) / name
+    print(f"trained {summary['num_timesteps']} env steps; model: {run_dir / 'final.zip'} "
+          f"(TensorBoard: tensorboard --logdir {run_dir / 'tb'})")
+    for r in summary.get("eval", []):
+        print(f"  {r['policy'][-40:]:40s} success {r['success_rate']:.2f} [{r['ci_low']:.2f}, {r['ci_high']:.2f}] "
+              f"over {r['episodes']} held-out episodes")
     return 0
 
 
@@ -402,7 +452,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
         raise CLIError(f"--episodes = {args.episodes} is out of range: allowed >= 1")
     if args.workers < 1:
         raise CLIError(f"--workers = {args.workers} is out of range: allowed >= 1")
-    rows = evaluate(args.policies, args.env, args.episodes, workers=args.workers)
+    rows = evaluate(args.policies, args.env, args.episodes, workers=args.workers, progress=not args.json)
     if args.json:
         print(json.dumps({"rows": rows}))
         return 0
@@ -418,139 +468,153 @@ def cmd_eval(args: argparse.Namespace) -> int:
 def cmd_rollout(args: argparse.Namespace) -> int:
     from evertgym.agents.rollout import rollout_gif
 
-    info = rollout_gif(args.policy, args.env, args.out, seed=args.seed)
-    print(json.dumps(info))
+    info = rollout_gif(args.policy, args.env, args.out, seed=args.seed, progress=not args.json)
+    if args.json:
+        print(json.dumps(info))
+        return 0
+    cmd = np.asarray(info["command_kpa"])
+    print(f"{'success' if info['success'] else 'no success'} after {info['time_s']:.1f} s ({len(cmd)} control steps); "
+          f"peak pressure {info['peak_pressure_kpa']:.2f} kPa")
+    if len(cmd):
+        print(f"pressure command: mean {cmd.mean():.2f} kPa, range {cmd.min():.2f}-{cmd.max():.2f} kPa "
+              "(--json lists every step)")
+    print(f"{info['frames']} frames -> {info['out']}")
     return 0
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="evertgym", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    from evertgym import __version__
+
+    p = _Parser(prog="evertgym", description=__doc__)
+    p.add_argument("--version", action="version", version=f"evertgym {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
 
-    rep = sub.add_parser("reproduce", help="reproduce a figure or table of the paper")
+    rep = _sub(sub, "reproduce", "reproduce a figure or table of the paper")
     rep_sub = rep.add_subparsers(dest="target", required=True)
-    rs = rep_sub.add_parser("stiffness", help="Exp 1-3: stiffness index per row, model against measured")
-    rs.add_argument("--json", action="store_true", help="print one JSON object")
+    rs = _sub(rep_sub, "stiffness", "Exp 1-3: stiffness index per row, model against measured")
+    rs.add_argument("--json", action="store_true", help="print one JSON object (for machines) instead of the table")
     rs.add_argument("--plot", default=None, help="write a force-displacement plot (PNG) here")
     rs.add_argument("--no-sim", action="store_true", help="skip the pymunk simulator's columns")
     rs.set_defaults(func=cmd_reproduce_stiffness)
 
-    ru = rep_sub.add_parser("ubend", help="validation experiment: U-bend success rates (Fig. 4d)")
-    ru.add_argument("--json", action="store_true")
+    ru = _sub(rep_sub, "ubend", "validation experiment: U-bend success rates (Fig. 4d)")
+    ru.add_argument("--json", action="store_true", help="print one JSON object (for machines) instead of the table")
     ru.add_argument("--trials", type=int, default=12, help="trials per design and radius")
     ru.add_argument("--db", default="runs/reproduce_ubend.sqlite", help="result store (resumable)")
-    ru.add_argument("--backend", choices=["process", "serial", "dask"], default="process")
-    ru.add_argument("--workers", type=int, default=None)
+    ru.add_argument("--backend", choices=["process", "serial", "dask"], default="process", help="where trials run: process pool, serial in this process, or a Dask cluster")
+    ru.add_argument("--workers", type=int, default=None, help="worker processes (default: one per core)")
     ru.add_argument("--plot", default=None, help="write the success-rate plot (PNG) here")
     ru.add_argument("--anatomy", action="store_true",
                     help="also where the failed trials jammed (free span, tip angle, M/Mc at the bands); "
                          "--json adds it under 'jam_anatomy'")
     ru.set_defaults(func=cmd_reproduce_ubend)
 
-    rc = rep_sub.add_parser("colon", help="colon phantom case study (Fig. 5d)")
-    rc.add_argument("--json", action="store_true")
-    rc.add_argument("--db", default="runs/reproduce_colon.sqlite")
+    rc = _sub(rep_sub, "colon", "colon phantom case study (Fig. 5d)")
+    rc.add_argument("--json", action="store_true", help="print one JSON object (for machines) instead of the table")
+    rc.add_argument("--db", default="runs/reproduce_colon.sqlite", help="result store (resumable)")
     rc.add_argument("--plot", default=None, help="write the pressure-position plot (PNG) here")
     rc.add_argument("--anatomy", action="store_true", help="also where a stalled robot jammed (--json: each row's 'jam')")
     rc.set_defaults(func=cmd_reproduce_colon)
 
-    rv = rep_sub.add_parser("eversion", help="Exp 4: minimum eversion pressure per band reduction, simulated")
-    rv.add_argument("--json", action="store_true", help="print one JSON object")
+    rv = _sub(rep_sub, "eversion", "Exp 4: minimum eversion pressure per band reduction, simulated")
+    rv.add_argument("--json", action="store_true", help="print one JSON object (for machines) instead of the table")
     rv.add_argument("--step-kpa", type=float, default=0.01, help="pressure step of the protocol (kPa)")
     rv.set_defaults(func=cmd_reproduce_eversion)
 
-    st = sub.add_parser("stiffness", help="virtual tensile test of any design")
+    st = _sub(sub, "stiffness", "virtual tensile test of any design")
     st.add_argument("--length-mm", type=float, default=None, help="free length, clamp to tip (default: calibrated, about 200)")
     st.add_argument("--bands-from-tip-mm", default="", help="band centres from the tip, e.g. 50,100")
     st.add_argument("--reduction", type=float, default=0.5, help="band diameter reduction in [0, 0.6)")
-    st.add_argument("--pressure-kpa", type=float, default=6.9)
+    st.add_argument("--pressure-kpa", type=float, default=6.9, help="inflation pressure, [0, 8] kPa")
     st.add_argument("--displacement-mm", type=float, default=20.0, help="lateral tip displacement, |D| <= 60")
-    st.add_argument("--diameter-mm", type=float, default=40.0)
+    st.add_argument("--diameter-mm", type=float, default=40.0, help="tube diameter (without --design), [1, 500] mm")
     st.add_argument("--design", default=None, help="design file (TOML or JSON) instead of the band flags")
-    st.add_argument("--json", action="store_true")
+    st.add_argument("--json", action="store_true", help="print one JSON object (for machines) instead of the table")
     st.add_argument("--no-sim", action="store_true", help="skip the pymunk simulator's figure")
     st.set_defaults(func=cmd_stiffness)
-    sc = sub.add_parser("score", help="score band designs on a scene distribution (resumable SQLite store)")
+    sc = _sub(sub, "score", "score band designs on a scene distribution (resumable SQLite store)")
     sc.add_argument("--design", action="append", help="a design file (TOML/JSON); repeatable")
     sc.add_argument("--bands-mm", default=None, help="band positions from the base, e.g. 200,250,300")
-    sc.add_argument("--reduction", type=float, default=0.1)
-    sc.add_argument("--diameter-mm", type=float, default=40.0)
-    sc.add_argument("--length-mm", type=float, default=900.0)
-    sc.add_argument("--scene", default="ubend", help="scene family")
+    sc.add_argument("--reduction", type=float, default=0.1, help="band diameter reduction of --bands-mm, [0, 0.6)")
+    sc.add_argument("--diameter-mm", type=float, default=40.0, help="tube diameter of the flag design (mm)")
+    sc.add_argument("--length-mm", type=float, default=900.0, help="robot length of the flag design (mm)")
+    sc.add_argument("--scene", default="ubend", help=f"scene family: {_scene_families()}")
     sc.add_argument("--scene-params", default="{}", help='JSON, e.g. \'{"radius_mm": 30}\'')
     sc.add_argument("--scenes", type=int, default=5, help="number of scene seeds")
     sc.add_argument("--trials", type=int, default=4, help="trials per scene")
     sc.add_argument("--policy", default="constant:pressure_kpa=3", help="constant:pressure_kpa=3, operator, tuned, a .zip, or JSON")
     sc.add_argument("--max-s", type=float, default=20.0, help="time limit per trial (s)")
     sc.add_argument("--band-jitter-mm", type=float, default=25.0, help="band position randomisation (+/- mm)")
-    sc.add_argument("--db", default="runs/score.sqlite")
-    sc.add_argument("--backend", choices=["process", "serial", "dask"], default="process")
-    sc.add_argument("--workers", type=int, default=None)
+    sc.add_argument("--db", default="runs/score.sqlite", help="result store (resumable: finished trials are not rerun)")
+    sc.add_argument("--backend", choices=["process", "serial", "dask"], default="process", help="where trials run: process pool, serial in this process, or a Dask cluster")
+    sc.add_argument("--workers", type=int, default=None, help="worker processes (default: one per core)")
     sc.add_argument("--address", default=None, help="Dask scheduler address (with --backend dask)")
-    sc.add_argument("--plot", default=None)
-    sc.add_argument("--json", action="store_true")
+    sc.add_argument("--plot", default=None, help="write the success-rate plot (PNG) here")
+    sc.add_argument("--json", action="store_true", help="print one JSON object (for machines) instead of the table")
     sc.set_defaults(func=cmd_score)
 
-    op = sub.add_parser("optimize", help="search band designs (optuna) and compare the best with the paper's on held-out scenes")
-    op.add_argument("--scene", default="ubend")
-    op.add_argument("--scene-params", default='{"radius_mm": 30}')
+    op = _sub(sub, "optimize", "search band designs (optuna) and compare the best with the paper's on held-out scenes")
+    op.add_argument("--scene", default="ubend", help=f"scene family: {_scene_families()}")
+    op.add_argument("--scene-params", default='{"radius_mm": 30}', help="scene parameters, JSON")
     op.add_argument("--trials", type=int, default=20, help="designs to try")
     op.add_argument("--scenes", type=int, default=4, help="training scene seeds per design")
-    op.add_argument("--trials-per-scene", type=int, default=2)
+    op.add_argument("--trials-per-scene", type=int, default=2, help="randomised trials per training scene")
     op.add_argument("--held-out", type=int, default=8, help="held-out scene seeds for the final comparison")
     op.add_argument("--budget-kpa", type=float, default=3.0, help="pressure budget")
-    op.add_argument("--policy", choices=["constant", "operator"], default="constant")
-    op.add_argument("--study", default="runs/optimize_study.sqlite")
-    op.add_argument("--db", default="runs/optimize_trials.sqlite")
-    op.add_argument("--backend", choices=["process", "serial", "dask"], default="process")
-    op.add_argument("--json", action="store_true")
+    op.add_argument("--policy", choices=["constant", "operator"], default="constant", help="pressure policy of every trial")
+    op.add_argument("--study", default="runs/optimize_study.sqlite", help="optuna study (resumable)")
+    op.add_argument("--db", default="runs/optimize_trials.sqlite", help="result store of the trials (resumable)")
+    op.add_argument("--backend", choices=["process", "serial", "dask"], default="process", help="where trials run: process pool, serial in this process, or a Dask cluster")
+    op.add_argument("--json", action="store_true", help="print one JSON object (for machines) instead of the table")
     op.set_defaults(func=cmd_optimize)
 
-    tr = sub.add_parser("train", help="train a pressure policy from a config in agents/")
-    tr.add_argument("config")
+    tr = _sub(sub, "train", "train a pressure policy from a config in agents/")
+    tr.add_argument("config", help="a training config, e.g. agents/ubend_ppo.toml")
     tr.add_argument("--out", default="runs", help="runs folder (default: runs/)")
     tr.add_argument("--resume", action="store_true", help="continue from the newest checkpoint")
-    tr.add_argument("--no-progress", dest="progress", action="store_false")
+    tr.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
+    tr.add_argument("--json", action="store_true", help="print the summary as JSON (for machines)")
     tr.set_defaults(func=cmd_train)
 
-    ev = sub.add_parser("eval", help="evaluate policies side by side on the same held-out episodes")
+    ev = _sub(sub, "eval", "evaluate policies side by side on the same held-out episodes")
     ev.add_argument("policies", nargs="+", help="a baseline name (constant, operator, tuned) or a saved model (.zip)")
-    ev.add_argument("--env", required=True)
-    ev.add_argument("--episodes", type=int, default=20)
-    ev.add_argument("--json", action="store_true")
+    ev.add_argument("--env", required=True, help="a registered env id, e.g. evertgym/Colon-v0")
+    ev.add_argument("--episodes", type=int, default=20, help="held-out episodes per policy (the same seeds for each)")
+    ev.add_argument("--json", action="store_true", help="print one JSON object (for machines) instead of the table")
     ev.add_argument("--workers", type=int, default=1, help="processes to spread the episodes over (default 1)")
     ev.set_defaults(func=cmd_eval)
 
-    ro = sub.add_parser("rollout", help="render one episode to a GIF")
-    ro.add_argument("policy")
-    ro.add_argument("--env", required=True)
+    ro = _sub(sub, "rollout", "render one episode to a GIF")
+    ro.add_argument("policy", help="a baseline (constant, operator, cycle, tuned), a shipped policy (colon_ppo, ubend_ppo) or a .zip")
+    ro.add_argument("--env", required=True, help="a registered env id, e.g. evertgym/Colon-v0")
     ro.add_argument("--out", required=True, help="FILE.gif")
-    ro.add_argument("--seed", type=int, default=0)
+    ro.add_argument("--seed", type=int, default=0, help="episode seed")
+    ro.add_argument("--json", action="store_true", help="print the outcome and every step's command as JSON")
     ro.set_defaults(func=cmd_rollout)
 
-    bench = sub.add_parser("bench", help="benchmarks")
+    bench = _sub(sub, "bench", "benchmarks")
     bench_sub = bench.add_subparsers(dest="target", required=True)
-    ba = bench_sub.add_parser("accuracy", help="run time against error over the simulator's fidelity settings")
+    ba = _sub(bench_sub, "accuracy", "run time against error over the simulator's fidelity settings")
     ba.add_argument("--quick", action="store_true", help="a smaller sweep")
-    ba.add_argument("--json", action="store_true")
+    ba.add_argument("--json", action="store_true", help="print one JSON object (for machines) instead of the table")
     ba.set_defaults(func=cmd_bench_accuracy)
-    bp = bench_sub.add_parser("peers", help="wall time against PyElastica and MuJoCo at 1%% tip-force error "
-                                            "(pip install -e '.[bench]')")
-    bp.add_argument("--json", action="store_true")
+    bp = _sub(bench_sub, "peers", "wall time against PyElastica and MuJoCo at 1%% tip-force error "
+                                  "(pip install -e '.[bench]')")
+    bp.add_argument("--json", action="store_true", help="print one JSON object (for machines) instead of the table")
     bp.set_defaults(func=cmd_bench_peers)
-    bo = bench_sub.add_parser("pool", help="scoring backends' throughput: serial, process pool (1, 2 workers), Dask; "
-                                           "speed-up against 1 worker")
+    bo = _sub(bench_sub, "pool", "scoring backends' throughput: serial, process pool (1, 2 workers), Dask; "
+                                 "speed-up against 1 worker")
     bo.add_argument("--trials", type=int, default=16, help="trials per backend")
     bo.add_argument("--trial-s", type=float, default=0.3, help="busy-loop trial duration (s)")
     bo.add_argument("--real", action="store_true", help="real U-bend trials instead of a busy loop")
     bo.add_argument("--no-dask", action="store_true", help="skip the Dask rows (they need the test or cluster extra)")
-    bo.add_argument("--json", action="store_true")
+    bo.add_argument("--json", action="store_true", help="print one JSON object (for machines) instead of the table")
     bo.set_defaults(func=cmd_bench_pool)
-    be = bench_sub.add_parser("env", help="env steps per second per registered id (random actions, one core)")
-    be.add_argument("--steps", type=int, default=500)
+    be = _sub(bench_sub, "env", "env steps per second per registered id (random actions, one core)")
+    be.add_argument("--steps", type=int, default=500, help="env steps per id, [1, 1e7]")
     be.add_argument("--env", action="append", help="an env id (repeatable); default: every registered id")
     be.add_argument("--no-pin", dest="one_core", action="store_false", help="do not pin the process to one core")
-    be.add_argument("--json", action="store_true")
+    be.add_argument("--json", action="store_true", help="print one JSON object (for machines) instead of the table")
     be.set_defaults(func=cmd_bench_env)
     return p
 

@@ -21,15 +21,21 @@ def run_episode(env, policy, seed: int) -> dict:
             return info
 
 
-def _run_episodes(desc: str | dict, env_id: str, env_kwargs: dict | None, seeds: list[int]) -> list[dict]:
-    """Final ``info`` of one episode per seed (episode and scene seed alike) for one policy."""
+def _run_episodes(desc: str | dict, env_id: str, env_kwargs: dict | None, seeds: list[int], bar=None) -> list[dict]:
+    """Final ``info`` of one episode per seed (episode and scene seed alike) for one policy;
+    ``bar`` (a tqdm bar) advances by one per episode."""
     import evertgym  # noqa: F401  (registers the envs)
 
     policy = make_policy(desc)
     # observation flags a trained model needs; they do not change the physics
     env = gym.make(env_id, **{**(env_kwargs or {}), **getattr(policy, "env_kwargs", {})})
     try:
-        return [run_episode(env, policy, seed) for seed in seeds]
+        infos = []
+        for seed in seeds:
+            infos.append(run_episode(env, policy, seed))
+            if bar is not None:
+                bar.update(1)
+        return infos
     finally:
         env.close()
 
@@ -41,16 +47,20 @@ def _worker_init() -> None:
 
 
 def evaluate(policies: list[str | dict], env_id: str, episodes: int, env_kwargs: dict | None = None,
-             seed_base: int = HELD_OUT_SEED_BASE, workers: int = 1) -> list[dict]:
+             seed_base: int = HELD_OUT_SEED_BASE, workers: int = 1, progress: bool = False) -> list[dict]:
     """One row per policy: success rate (Wilson 95%), mean time to goal, peak pressure and
     max contact force over ``episodes`` episodes whose seeds (and scene seeds) are
     ``seed_base + i``, the same for every policy.  ``workers > 1`` spreads the episodes
-    over that many processes; every episode is seeded, so the rows do not change."""
+    over that many processes; every episode is seeded, so the rows do not change.
+    ``progress`` shows a bar over all policies' episodes (on stderr)."""
+    from tqdm import tqdm
+
     if not (isinstance(episodes, int) and episodes >= 1):
         raise ValueError(f"episodes = {episodes!r} is out of range: allowed integers >= 1")
     if not (isinstance(workers, int) and workers >= 1):
         raise ValueError(f"workers = {workers!r} is out of range: allowed integers >= 1")
     seeds = [seed_base + i for i in range(episodes)]
+    bar = tqdm(total=episodes * len(policies), desc="eval", unit="episode", disable=not progress)
     size = -(-episodes // workers)  # contiguous chunks: concatenated, they are in seed order
     chunks = [seeds[k:k + size] for k in range(0, episodes, size)]
     if len(chunks) > 1:
@@ -59,9 +69,13 @@ def evaluate(policies: list[str | dict], env_id: str, episodes: int, env_kwargs:
 
         with ProcessPoolExecutor(len(chunks), mp_context=mp.get_context("spawn"), initializer=_worker_init) as pool:
             futures = [[pool.submit(_run_episodes, desc, env_id, env_kwargs, c) for c in chunks] for desc in policies]
+            for fs in futures:
+                for f, c in zip(fs, chunks):
+                    f.add_done_callback(lambda _f, n=len(c): bar.update(n))
             results = [[info for f in fs for info in f.result()] for fs in futures]
     else:
-        results = [_run_episodes(desc, env_id, env_kwargs, seeds) for desc in policies]
+        results = [_run_episodes(desc, env_id, env_kwargs, seeds, bar) for desc in policies]
+    bar.close()
     rows = []
     for desc, infos in zip(policies, results):
         wins = [i for i in infos if i["success"]]

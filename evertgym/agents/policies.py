@@ -78,7 +78,7 @@ class SB3Policy(Policy):
 
 def make_policy(desc: dict | str) -> Policy:
     """``{"name": "constant", "pressure_kpa": 3}``, ``"operator"``, ``{"name": "agent", "path": ...,
-    "deterministic": ...}`` or the path of a saved model, optionally with its action mode
+    "deterministic": ...}``, a shipped policy's name (``"colon_ppo"``) or the path of a saved model, optionally with its action mode
     (``"model.zip:stochastic"``, ``"model.zip:deterministic"``)."""
     if isinstance(desc, str):
         path, _, mode = desc.partition(".zip:")
@@ -94,4 +94,8 @@ def make_policy(desc: dict | str) -> Policy:
         return SB3Policy(desc["path"], desc.get("deterministic"))
     if name is None:
         raise ValueError("policy must have a name: constant, operator, tuned or agent")
+    from evertgym.agents.load import resolve_policy_path, shipped_policies
+
+    if name in shipped_policies():  # a shipped trained policy by name, e.g. "colon_ppo"
+        return SB3Policy(resolve_policy_path(name), desc.get("deterministic"))
     return make_baseline(name, **desc)

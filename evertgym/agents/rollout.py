@@ -1,4 +1,4 @@
-"""Render one episode of a policy to an animated GIF (Pillow, via matplotlib's dependency)."""
+"""Render one episode of a policy to an animated GIF (Pillow; frames from :mod:`evertgym.render`)."""
 
 from __future__ import annotations
 
@@ -9,10 +9,13 @@ import gymnasium as gym
 from evertgym.agents.policies import make_policy
 
 
-def rollout_gif(policy_desc: str, env_id: str, out: str | Path, seed: int = 0, every: int = 2) -> dict:
+def rollout_gif(policy_desc: str, env_id: str, out: str | Path, seed: int = 0, every: int = 2,
+                progress: bool = False) -> dict:
     """Run one episode with ``render_mode="rgb_array"``; every ``every``-th frame goes to ``out``.
-    Returns the outcome and the pressure command of every control step (``command_kpa``)."""
+    Returns the outcome and the pressure command of every control step (``command_kpa``).
+    ``progress`` shows a bar over the episode's control steps (on stderr)."""
     from PIL import Image
+    from tqdm import tqdm
 
     import evertgym  # noqa: F401
 
@@ -26,14 +29,17 @@ def rollout_gif(policy_desc: str, env_id: str, out: str | Path, seed: int = 0, e
     frames = [env.render()]
     commands: list[float] = []
     k = 0
+    bar = tqdm(total=env.spec.max_episode_steps if env.spec else None, desc="rollout", unit="step", disable=not progress)
     while True:
         obs, _, term, trunc, info = env.step(policy.act(obs, info))
         commands.append(round(env.unwrapped.command_pa / 1e3, 2))
         k += 1
+        bar.update(1)
         if k % every == 0 or term or trunc:
             frames.append(env.render())
         if term or trunc:
             break
+    bar.close()
     images = [Image.fromarray(f) for f in frames]
     out.parent.mkdir(parents=True, exist_ok=True)
     fps = env.metadata.get("render_fps", 10) / every

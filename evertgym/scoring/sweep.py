@@ -52,8 +52,8 @@ def sweep_specs(
     return specs
 
 
-def plot_summary(rows: list[dict], path: str | Path) -> Path:
-    """Success rate with its Wilson interval per design."""
+def plot_summary(rows: list[dict], path: str | Path, title: str | None = None) -> Path:
+    """Success rate with its Wilson interval per design (``n`` under each name), titled ``title``."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -66,7 +66,12 @@ def plot_summary(rows: list[dict], path: str | Path) -> Path:
     rate = [r["success_rate"] for r in rows]
     err = [[r["success_rate"] - r["success_ci_lo"] for r in rows], [r["success_ci_hi"] - r["success_rate"] for r in rows]]
     ax.bar(x, rate, yerr=err, capsize=4, color="tab:blue", alpha=0.7)
-    ax.set_xticks(list(x), [r["design_name"] for r in rows], rotation=20, fontsize=8)
-    ax.set_ylabel("success rate (Wilson 95%)")
+    ax.set_xticks(list(x), [f"{r['design_name']}\nn = {r['n']}" for r in rows], rotation=20, fontsize=8)
+    ax.set_xlabel("design")
+    ax.set_ylabel("success rate\n(bars: Wilson 95% interval)")
     ax.set_ylim(0, 1.05)
+    if title:
+        import textwrap
+
+        ax.set_title("\n".join(textwrap.wrap(title, 60)), fontsize=8)
     return save_figure(fig, path)
