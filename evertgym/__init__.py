@@ -6,7 +6,7 @@ law, calibration), ``evertgym.sim`` (pymunk simulator), ``evertgym.scenes``,
 Importing the package registers the Gymnasium environments.
 """
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
 
 def _register() -> None:

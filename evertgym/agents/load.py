@@ -27,6 +27,15 @@ from evertgym.agents.baselines import Policy
 AGENTS_DIR = Path(__file__).resolve().parents[2] / "agents"
 
 
+def require_rl(what: str) -> None:
+    """Raise ``ImportError`` naming the ``rl`` extra when stable-baselines3 or PyTorch is missing."""
+    try:
+        import stable_baselines3  # noqa: F401
+        import torch  # noqa: F401
+    except ImportError as e:
+        raise ImportError(f"{what} needs the rl extra (PyTorch, stable-baselines3): pip install 'evertgym[rl]' ({e})") from e
+
+
 def shipped_dir() -> Path:
     """The folder of shipped configs and policies (a checkout's ``agents/`` or the wheel's copy)."""
     if (AGENTS_DIR / "tuned_operator.json").is_file():
@@ -67,6 +76,7 @@ def load_policy(name_or_path: str | Path, deterministic: bool | None = None) -> 
     ``act(obs, info)``) and applies the model's VecNormalize statistics itself; its SB3
     model is ``policy.model``.
     """
+    require_rl("load_policy")
     from evertgym.agents.policies import SB3Policy
 
     path = resolve_policy_path(name_or_path)

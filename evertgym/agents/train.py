@@ -100,6 +100,9 @@ def _latest_checkpoint(ckpt_dir: Path, normalize: bool) -> tuple[Path, int] | No
 
 def train(config_path: str | Path, out_dir: str | Path = "runs", resume: bool = False, progress: bool = True) -> dict:
     """Train (or resume) the config's agent; returns the final evaluation summary."""
+    from evertgym.agents.load import require_rl
+
+    require_rl("training")
     from stable_baselines3 import PPO, SAC
     from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecNormalize

@@ -1,0 +1,118 @@
+"""Package hygiene: one version source, licence and citation, the core without PyTorch,
+the API reference builds without warnings, and the wheel carries every data file."""
+
+from __future__ import annotations
+
+import importlib.metadata
+import os
+import subprocess
+import sys
+import textwrap
+import zipfile
+from pathlib import Path
+
+import pytest
+
+import evertgym
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_one_version_source():
+    assert importlib.metadata.version("evertgym") == evertgym.__version__
+    assert f'version: "{evertgym.__version__}"' in (ROOT / "CITATION.cff").read_text(encoding="utf-8")
+    assert f"## [{evertgym.__version__}]" in (ROOT / "CHANGELOG.md").read_text(encoding="utf-8")
+    assert 'dynamic = ["version"]' in (ROOT / "pyproject.toml").read_text(encoding="utf-8")
+
+
+def test_licence_and_citation():
+    assert (ROOT / "LICENSE").read_text(encoding="utf-8").startswith("MIT License")
+    yaml = pytest.importorskip("yaml")
+    cff = yaml.safe_load((ROOT / "CITATION.cff").read_text(encoding="utf-8"))
+    assert cff["cff-version"] == "1.2.0" and cff["license"] == "MIT"
+    assert "Constrictive Bands" in cff["references"][0]["title"]
+
+
+BLOCK_RL = textwrap.dedent("""
+    import importlib.abc, sys
+
+    class Block(importlib.abc.MetaPathFinder):
+        def find_spec(self, name, path=None, target=None):
+            if name.split(".")[0] in {"torch", "stable_baselines3", "tensorboard"}:
+                raise ImportError(f"{name} is blocked: the core must work without the rl extra")
+
+    sys.meta_path.insert(0, Block())
+""")
+
+
+def test_core_works_without_the_rl_extra():
+    code = BLOCK_RL + textwrap.dedent("""
+        import gymnasium as gym, numpy as np
+        import evertgym
+        from evertgym.agents import make_baseline
+        from evertgym.cli import main
+        import evertgym.scoring.runner, evertgym.render, evertgym.agents.evaluate, evertgym.agents.rollout
+
+        env = gym.make("evertgym/Colon-v0", render_mode="rgb_array")
+        obs, info = env.reset(seed=0)
+        policy = make_baseline("tuned")
+        policy.reset(env)
+        env.step(policy.act(obs, info))
+        assert env.render().shape == (480, 480, 3)
+        assert main(["stiffness", "--no-sim", "--json"]) == 0
+        try:
+            from evertgym.agents import load_policy
+            load_policy("colon_ppo")
+        except ImportError as e:
+            assert "pip install 'evertgym[rl]'" in str(e), e
+        else:
+            raise AssertionError("load_policy should need the rl extra")
+        print("core ok")
+    """)
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=ROOT)
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert "core ok" in done.stdout
+
+
+def test_api_reference_builds_without_warnings(tmp_path):
+    pytest.importorskip("pdoc")
+    done = subprocess.run([sys.executable, str(ROOT / "scripts" / "build_api_docs.py"), str(tmp_path)],
+                          capture_output=True, text=True, timeout=600, cwd=ROOT)
+    assert done.returncode == 0, done.stderr[-3000:]
+    for page in ("evertgym/env/eversion_env.html", "evertgym/agents/load.html", "evertgym/render/raster.html"):
+        assert (tmp_path / page).is_file(), page
+
+
+@pytest.mark.slow
+def test_wheel_carries_the_data_and_runs_from_a_fresh_venv(tmp_path):
+    """Build the wheel, install it (no deps: they come from this interpreter's site) in a new
+    venv, and run the tuned baseline and a shipped policy from outside the checkout."""
+    subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(tmp_path / "dist"), str(ROOT)],
+                   check=True, timeout=600)
+    wheel = next((tmp_path / "dist").glob("evertgym-*.whl"))
+    names = set(zipfile.ZipFile(wheel).namelist())
+    for f in ("evertgym/shipped/tuned_operator.json", "evertgym/shipped/colon_ppo/final.zip",
+              "evertgym/shipped/colon_ppo/final_env.json", "evertgym/shipped/colon_ppo/final_vecnormalize.pkl",
+              "evertgym/shipped/ppo.yml", "evertgym/presets/colon.toml", "evertgym/data/model_params.json"):
+        assert f in names, f
+    venv = tmp_path / "venv"
+    subprocess.run([sys.executable, "-m", "venv", "--system-site-packages", str(venv)], check=True, timeout=300)
+    py = venv / "bin" / "python"
+    subprocess.run([str(py), "-m", "pip", "install", "-q", "--no-deps", str(wheel)], check=True, timeout=600)
+    code = textwrap.dedent("""
+        import gymnasium as gym
+        import evertgym
+        from evertgym.agents import load_policy, make_baseline
+        assert "site-packages" in evertgym.__file__, evertgym.__file__
+        env = gym.make("evertgym/Colon-v0")
+        tuned = make_baseline("tuned")
+        obs, info = env.reset(seed=0); tuned.reset(env); env.step(tuned.act(obs, info))
+        policy, env_id, kw = load_policy("colon_ppo")
+        env = gym.make(env_id, **kw)
+        obs, info = env.reset(seed=0); policy.reset(env); env.step(policy.act(obs, info))
+        print("wheel ok", evertgym.__version__)
+    """)
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    done = subprocess.run([str(py), "-c", code], capture_output=True, text=True, timeout=300, cwd=tmp_path, env=env)
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert f"wheel ok {evertgym.__version__}" in done.stdout
