@@ -213,9 +213,13 @@ def cmd_stiffness(args: argparse.Namespace) -> int:
 
 
 def cmd_bench_accuracy(args: argparse.Namespace) -> int:
-    from evertgym.bench.accuracy import run_sweep
+    from tqdm import tqdm
 
-    result = run_sweep(quick=args.quick)
+    from evertgym.bench.accuracy import default_settings, run_sweep
+
+    settings = default_settings(args.quick)
+    with tqdm(total=len(settings), desc="bench accuracy", unit="setting", disable=args.json) as bar:
+        result = run_sweep(settings, quick=args.quick, on_row=lambda _row: bar.update(1))
     if args.json:
         print(json.dumps({"rows": result["rows"], "default": result["default"]}, default=float))
         return 0
