@@ -83,4 +83,22 @@ def load_policy(name_or_path: str | Path, deterministic: bool | None = None) -> 
     policy = SB3Policy(path, deterministic)
     meta = path.with_name(path.stem + "_env.json")
     env_id = json.loads(meta.read_text()).get("env_id") if meta.exists() else None
+    if env_id is not None:
+        _adopt_observation_space(policy.model, env_id, policy.env_kwargs)
     return policy, env_id, dict(policy.env_kwargs)
+
+
+def _adopt_observation_space(model, env_id: str, env_kwargs: dict) -> None:
+    """Give a model saved before 0.2.0 (observation bounds +-10) the env's true bounds, so
+    ``model.set_env(env)`` (fine-tuning) passes SB3's space check; the values it sees are
+    the same.  Only when the shapes agree: a real mismatch still fails there."""
+    import gymnasium as gym
+
+    import evertgym  # noqa: F401  (registers the envs)
+
+    env = gym.make(env_id, **env_kwargs)
+    space = env.observation_space
+    env.close()
+    if space.shape == model.observation_space.shape:
+        model.observation_space = space
+        model.policy.observation_space = space

@@ -1,0 +1,51 @@
+"""load_policy: shipped policies by name, with the env they were trained on."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import evertgym  # noqa: F401
+from evertgym.agents import load_policy, shipped_policies
+from evertgym.agents.load import resolve_policy_path, shipped_dir
+
+pytest.importorskip("stable_baselines3")
+
+
+def test_shipped_policy_loads_with_its_env_and_accepts_that_env_for_fine_tuning():
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    policy, env_id, env_kwargs = load_policy("colon_ppo")
+    assert env_id == "evertgym/Colon-v0" and env_kwargs == {"tip_sensing": True}
+    env = gym.make(env_id, **env_kwargs)
+    obs, info = env.reset(seed=0)
+    policy.reset(env)
+    action = policy.act(obs, info)
+    assert action.shape == (1,) and -1 <= action[0] <= 1
+    # the saved space had +-10 bounds; the loaded model takes the env's, so SB3's check passes
+    policy.model.set_env(DummyVecEnv([lambda: gym.make(env_id, **env_kwargs)] * policy.model.n_envs))
+    assert policy.model.observation_space == env.observation_space
+
+
+def test_a_path_a_run_folder_and_a_name_resolve_alike():
+    zip_path = shipped_dir() / "ubend_ppo" / "final.zip"
+    assert resolve_policy_path("ubend_ppo") == resolve_policy_path(zip_path.parent) == zip_path == resolve_policy_path(zip_path)
+    assert shipped_policies() == ["colon_ppo", "ubend_ppo"]
+
+
+def test_unknown_policy_names_the_shipped_ones():
+    with pytest.raises(ValueError, match=r"shipped: \['colon_ppo', 'ubend_ppo'\]"):
+        load_policy("no_such_policy")
+
+
+def test_loaded_policy_acts_like_the_cli_path():
+    from evertgym.agents.policies import make_policy
+
+    a, env_id, kw = load_policy("ubend_ppo")
+    b = make_policy("ubend_ppo")
+    env = gym.make(env_id, **kw)
+    obs, info = env.reset(seed=3)
+    a.reset(env)
+    b.reset(env)
+    assert np.array_equal(a.act(obs, info), b.act(obs, info))
