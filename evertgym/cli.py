@@ -37,6 +37,10 @@ class _Parser(argparse.ArgumentParser):
         super().__init__(*args, **kwargs)
 
 
+_JSON_HELP = "print one JSON object (for machines) instead of the table"
+_BACKEND_HELP = "where trials run: process pool, serial in this process, or a Dask cluster"
+
+
 def _sub(subparsers: argparse._SubParsersAction, name: str, text: str) -> argparse.ArgumentParser:
     """A subcommand whose one-line help is also its description."""
     return subparsers.add_parser(name, help=text, description=text.replace("%%", "%"))
@@ -496,16 +500,16 @@ def build_parser() -> argparse.ArgumentParser:
     rep = _sub(sub, "reproduce", "reproduce a figure or table of the paper")
     rep_sub = rep.add_subparsers(dest="target", required=True)
     rs = _sub(rep_sub, "stiffness", "Exp 1-3: stiffness index per row, model against measured")
-    rs.add_argument("--json", action="store_true", help="print one JSON object (for machines) instead of the table")
+    rs.add_argument("--json", action="store_true", help=_JSON_HELP)
     rs.add_argument("--plot", default=None, help="write a force-displacement plot (PNG) here")
     rs.add_argument("--no-sim", action="store_true", help="skip the pymunk simulator's columns")
     rs.set_defaults(func=cmd_reproduce_stiffness)
 
     ru = _sub(rep_sub, "ubend", "validation experiment: U-bend success rates (Fig. 4d)")
-    ru.add_argument("--json", action="store_true", help="print one JSON object (for machines) instead of the table")
+    ru.add_argument("--json", action="store_true", help=_JSON_HELP)
     ru.add_argument("--trials", type=int, default=12, help="trials per design and radius")
     ru.add_argument("--db", default="runs/reproduce_ubend.sqlite", help="result store (resumable)")
-    ru.add_argument("--backend", choices=["process", "serial", "dask"], default="process", help="where trials run: process pool, serial in this process, or a Dask cluster")
+    ru.add_argument("--backend", choices=["process", "serial", "dask"], default="process", help=_BACKEND_HELP)
     ru.add_argument("--workers", type=int, default=None, help="worker processes (default: one per core)")
     ru.add_argument("--plot", default=None, help="write the success-rate plot (PNG) here")
     ru.add_argument("--anatomy", action="store_true",
@@ -514,14 +518,14 @@ def build_parser() -> argparse.ArgumentParser:
     ru.set_defaults(func=cmd_reproduce_ubend)
 
     rc = _sub(rep_sub, "colon", "colon phantom case study (Fig. 5d)")
-    rc.add_argument("--json", action="store_true", help="print one JSON object (for machines) instead of the table")
+    rc.add_argument("--json", action="store_true", help=_JSON_HELP)
     rc.add_argument("--db", default="runs/reproduce_colon.sqlite", help="result store (resumable)")
     rc.add_argument("--plot", default=None, help="write the pressure-position plot (PNG) here")
     rc.add_argument("--anatomy", action="store_true", help="also where a stalled robot jammed (--json: each row's 'jam')")
     rc.set_defaults(func=cmd_reproduce_colon)
 
     rv = _sub(rep_sub, "eversion", "Exp 4: minimum eversion pressure per band reduction, simulated")
-    rv.add_argument("--json", action="store_true", help="print one JSON object (for machines) instead of the table")
+    rv.add_argument("--json", action="store_true", help=_JSON_HELP)
     rv.add_argument("--step-kpa", type=float, default=0.01, help="pressure step of the protocol (kPa)")
     rv.set_defaults(func=cmd_reproduce_eversion)
 
@@ -533,7 +537,7 @@ def build_parser() -> argparse.ArgumentParser:
     st.add_argument("--displacement-mm", type=float, default=20.0, help="lateral tip displacement, |D| <= 60")
     st.add_argument("--diameter-mm", type=float, default=40.0, help="tube diameter (without --design), [1, 500] mm")
     st.add_argument("--design", default=None, help="design file (TOML or JSON) instead of the band flags")
-    st.add_argument("--json", action="store_true", help="print one JSON object (for machines) instead of the table")
+    st.add_argument("--json", action="store_true", help=_JSON_HELP)
     st.add_argument("--no-sim", action="store_true", help="skip the pymunk simulator's figure")
     st.set_defaults(func=cmd_stiffness)
     sc = _sub(sub, "score", "score band designs on a scene distribution (resumable SQLite store)")
@@ -550,11 +554,11 @@ def build_parser() -> argparse.ArgumentParser:
     sc.add_argument("--max-s", type=float, default=20.0, help="time limit per trial (s)")
     sc.add_argument("--band-jitter-mm", type=float, default=25.0, help="band position randomisation (+/- mm)")
     sc.add_argument("--db", default="runs/score.sqlite", help="result store (resumable: finished trials are not rerun)")
-    sc.add_argument("--backend", choices=["process", "serial", "dask"], default="process", help="where trials run: process pool, serial in this process, or a Dask cluster")
+    sc.add_argument("--backend", choices=["process", "serial", "dask"], default="process", help=_BACKEND_HELP)
     sc.add_argument("--workers", type=int, default=None, help="worker processes (default: one per core)")
     sc.add_argument("--address", default=None, help="Dask scheduler address (with --backend dask)")
     sc.add_argument("--plot", default=None, help="write the success-rate plot (PNG) here")
-    sc.add_argument("--json", action="store_true", help="print one JSON object (for machines) instead of the table")
+    sc.add_argument("--json", action="store_true", help=_JSON_HELP)
     sc.set_defaults(func=cmd_score)
 
     op = _sub(sub, "optimize", "search band designs (optuna) and compare the best with the paper's on held-out scenes")
@@ -568,8 +572,8 @@ def build_parser() -> argparse.ArgumentParser:
     op.add_argument("--policy", choices=["constant", "operator"], default="constant", help="pressure policy of every trial")
     op.add_argument("--study", default="runs/optimize_study.sqlite", help="optuna study (resumable)")
     op.add_argument("--db", default="runs/optimize_trials.sqlite", help="result store of the trials (resumable)")
-    op.add_argument("--backend", choices=["process", "serial", "dask"], default="process", help="where trials run: process pool, serial in this process, or a Dask cluster")
-    op.add_argument("--json", action="store_true", help="print one JSON object (for machines) instead of the table")
+    op.add_argument("--backend", choices=["process", "serial", "dask"], default="process", help=_BACKEND_HELP)
+    op.add_argument("--json", action="store_true", help=_JSON_HELP)
     op.set_defaults(func=cmd_optimize)
 
     tr = _sub(sub, "train", "train a pressure policy from a config in agents/")
@@ -584,7 +588,7 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("policies", nargs="+", help="a baseline name (constant, operator, tuned) or a saved model (.zip)")
     ev.add_argument("--env", required=True, help="a registered env id, e.g. evertgym/Colon-v0")
     ev.add_argument("--episodes", type=int, default=20, help="held-out episodes per policy (the same seeds for each)")
-    ev.add_argument("--json", action="store_true", help="print one JSON object (for machines) instead of the table")
+    ev.add_argument("--json", action="store_true", help=_JSON_HELP)
     ev.add_argument("--workers", type=int, default=1, help="processes to spread the episodes over (default 1)")
     ev.set_defaults(func=cmd_eval)
 
@@ -600,11 +604,11 @@ def build_parser() -> argparse.ArgumentParser:
     bench_sub = bench.add_subparsers(dest="target", required=True)
     ba = _sub(bench_sub, "accuracy", "run time against error over the simulator's fidelity settings")
     ba.add_argument("--quick", action="store_true", help="a smaller sweep")
-    ba.add_argument("--json", action="store_true", help="print one JSON object (for machines) instead of the table")
+    ba.add_argument("--json", action="store_true", help=_JSON_HELP)
     ba.set_defaults(func=cmd_bench_accuracy)
     bp = _sub(bench_sub, "peers", "wall time against PyElastica and MuJoCo at 1%% tip-force error "
                                   "(pip install -e '.[bench]')")
-    bp.add_argument("--json", action="store_true", help="print one JSON object (for machines) instead of the table")
+    bp.add_argument("--json", action="store_true", help=_JSON_HELP)
     bp.set_defaults(func=cmd_bench_peers)
     bo = _sub(bench_sub, "pool", "scoring backends' throughput: serial, process pool (1, 2 workers), Dask; "
                                  "speed-up against 1 worker")
@@ -612,13 +616,13 @@ def build_parser() -> argparse.ArgumentParser:
     bo.add_argument("--trial-s", type=float, default=0.3, help="busy-loop trial duration (s)")
     bo.add_argument("--real", action="store_true", help="real U-bend trials instead of a busy loop")
     bo.add_argument("--no-dask", action="store_true", help="skip the Dask rows (they need the test or cluster extra)")
-    bo.add_argument("--json", action="store_true", help="print one JSON object (for machines) instead of the table")
+    bo.add_argument("--json", action="store_true", help=_JSON_HELP)
     bo.set_defaults(func=cmd_bench_pool)
     be = _sub(bench_sub, "env", "env steps per second per registered id (random actions, one core)")
     be.add_argument("--steps", type=int, default=500, help="env steps per id, [1, 1e7]")
     be.add_argument("--env", action="append", help="an env id (repeatable); default: every registered id")
     be.add_argument("--no-pin", dest="one_core", action="store_false", help="do not pin the process to one core")
-    be.add_argument("--json", action="store_true", help="print one JSON object (for machines) instead of the table")
+    be.add_argument("--json", action="store_true", help=_JSON_HELP)
     be.set_defaults(func=cmd_bench_env)
     return p
 

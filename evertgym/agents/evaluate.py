@@ -40,6 +40,11 @@ def _run_episodes(desc: str | dict, env_id: str, env_kwargs: dict | None, seeds:
         env.close()
 
 
+def _advance(bar, n: int):
+    """A future's done-callback that advances the progress bar by ``n`` episodes."""
+    return lambda _future: bar.update(n)
+
+
 def _worker_init() -> None:
     import torch
 
@@ -71,7 +76,7 @@ def evaluate(policies: list[str | dict], env_id: str, episodes: int, env_kwargs:
             futures = [[pool.submit(_run_episodes, desc, env_id, env_kwargs, c) for c in chunks] for desc in policies]
             for fs in futures:
                 for f, c in zip(fs, chunks):
-                    f.add_done_callback(lambda _f, n=len(c): bar.update(n))
+                    f.add_done_callback(_advance(bar, len(c)))
             results = [[info for f in fs for info in f.result()] for fs in futures]
     else:
         results = [_run_episodes(desc, env_id, env_kwargs, seeds, bar) for desc in policies]

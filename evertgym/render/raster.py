@@ -14,6 +14,7 @@ dark grey, entry green, goal red.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -49,7 +50,7 @@ class Overlay:
     outcome: str = "running"
 
 
-def robot_profile(centreline: np.ndarray, radius_m: float, bands: list[tuple[float, float, float]],
+def robot_profile(centreline: np.ndarray, radius_m: float, bands: Sequence[tuple[float, float, float]],
                   step_m: float = ROBOT_STEP_M) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Resample the robot's centreline (base to tip, m) every ``step_m``.
 
@@ -118,8 +119,7 @@ class FrameRenderer:
     def to_px(self, xy: np.ndarray) -> np.ndarray:
         """World points (m) -> supersampled pixel coordinates (y down)."""
         d = (np.asarray(xy, dtype=float) - self._centre) * self.scale
-        return np.column_stack([self._offset[0] + d[..., 0], self._offset[1] - d[..., 1]]) if d.ndim == 2 else \
-            np.array([self._offset[0] + d[0], self._offset[1] - d[1]])
+        return np.stack([self._offset[0] + d[..., 0], self._offset[1] - d[..., 1]], axis=-1)
 
     def _poly(self, xy: np.ndarray) -> list[tuple[float, float]]:
         return [tuple(p) for p in self.to_px(xy)]
@@ -158,7 +158,7 @@ class FrameRenderer:
 
     # ---- frame -------------------------------------------------------------------
     def frame(self, centreline: np.ndarray | None = None, radius_m: float | None = None,
-              bands: list[tuple[float, float, float]] = (), handles: SceneHandles | None = None,
+              bands: Sequence[tuple[float, float, float]] = (), handles: SceneHandles | None = None,
               overlay: Overlay | None = None) -> np.ndarray:
         """One RGB frame (height, width, 3) uint8.
 
@@ -176,7 +176,7 @@ class FrameRenderer:
                 pts = outline @ np.array([[c, s], [-s, c]]) + np.array(tuple(body.position))
                 d.line(self._poly(pts), fill=COMPLIANT, width=lw)
         if centreline is not None and len(centreline) > 1 and radius_m is not None:
-            self._draw_robot(d, np.asarray(centreline, float), float(radius_m), list(bands))
+            self._draw_robot(d, np.asarray(centreline, float), float(radius_m), bands)
         if self.k > 1:
             img = img.reduce(self.k)
         if overlay is not None:
@@ -184,7 +184,7 @@ class FrameRenderer:
         return np.asarray(img)
 
     def _draw_robot(self, d: ImageDraw.ImageDraw, centreline: np.ndarray, radius_m: float,
-                    bands: list[tuple[float, float, float]]) -> None:
+                    bands: Sequence[tuple[float, float, float]]) -> None:
         pts, s, r = robot_profile(centreline, radius_m, bands)
         px = self.to_px(pts)
         rpx = r * self.scale
