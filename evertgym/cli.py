@@ -15,10 +15,11 @@ import json
 import math
 import sys
 import time
-
 from pathlib import Path
 
 import numpy as np
+
+from evertgym._validate import check_range
 
 
 class CLIError(ValueError):
@@ -39,9 +40,7 @@ def _float_list(flag: str, text: str) -> list[float]:
 
 
 def _check(flag: str, value: float, lo: float, hi: float, unit: str) -> float:
-    if not (math.isfinite(value) and lo <= value <= hi):
-        raise CLIError(f"{flag} = {value!r} is out of range: allowed [{lo:g}, {hi:g}] {unit}")
-    return value
+    return check_range(flag, value, lo, hi, unit=unit, error=CLIError)
 
 
 # ---- reproduce stiffness ---------------------------------------------------------------
@@ -72,16 +71,16 @@ def _stiffness_curves(result: dict, n_points: int = 11) -> list[dict]:
 
 
 def cmd_reproduce_stiffness(args: argparse.Namespace) -> int:
-    from evertgym.model.stiffness import reproduce_stiffness
+    from evertgym.experiments.stiffness import reproduce_stiffness
 
     t0 = time.perf_counter()
     result = reproduce_stiffness()
     if not args.no_sim:
-        from evertgym.sim.tensile import add_sim_columns
+        from evertgym.experiments.stiffness import add_sim_columns
 
         add_sim_columns(result)
     if args.plot:
-        from evertgym.plots import plot_stiffness_curves
+        from evertgym.experiments.plots import plot_stiffness_curves
 
         plot_stiffness_curves(_stiffness_curves(result), args.plot)
     if args.json:
@@ -112,7 +111,7 @@ def cmd_reproduce_stiffness(args: argparse.Namespace) -> int:
 
 
 def cmd_reproduce_eversion(args: argparse.Namespace) -> int:
-    from evertgym.sim.eversion_test import reproduce_eversion
+    from evertgym.experiments.eversion import reproduce_eversion
 
     step = _check("--step-kpa", args.step_kpa, 0.001, 1.0, "kPa")
     t0 = time.perf_counter()
@@ -223,7 +222,6 @@ def cmd_bench_pool(args: argparse.Namespace) -> int:
 def cmd_bench_env(args: argparse.Namespace) -> int:
     import os
 
-    import evertgym  # noqa: F401  (registers the envs)
     from evertgym.env import register_envs
     from evertgym.env.bench import bench_env
 
@@ -243,7 +241,7 @@ def cmd_bench_env(args: argparse.Namespace) -> int:
 
 
 def cmd_reproduce_ubend(args: argparse.Namespace) -> int:
-    from evertgym.scoring.paper import plot_ubend, reproduce_ubend
+    from evertgym.experiments.paper import plot_ubend, reproduce_ubend
 
     if not (1 <= args.trials <= 1000):
         raise CLIError(f"--trials = {args.trials} is out of range: allowed [1, 1000]")
@@ -267,7 +265,7 @@ def cmd_reproduce_ubend(args: argparse.Namespace) -> int:
         print(f"{name:>10} " + " ".join(f"{c['successes']:>3}/{c['trials']:<2}" for c in cells) + f" {sum(c['successes'] for c in cells):>6}")
     print(f"time: {result['wall_s']:.1f} s (store: {args.db})")
     if args.anatomy:
-        from evertgym.scoring.paper import ubend_jam_table
+        from evertgym.experiments.paper import ubend_jam_table
 
         print("\nWhere the failed trials jammed (medians; docs/scoring.md explains the columns):\n")
         print(ubend_jam_table(result["jams"]), end="")
@@ -275,11 +273,11 @@ def cmd_reproduce_ubend(args: argparse.Namespace) -> int:
 
 
 def cmd_reproduce_colon(args: argparse.Namespace) -> int:
-    from evertgym.scoring.paper import reproduce_colon
+    from evertgym.experiments.paper import reproduce_colon
 
     result = reproduce_colon(args.db)
     if args.plot:
-        from evertgym.plots import plot_pressure_position
+        from evertgym.experiments.plots import plot_pressure_position
 
         plot_pressure_position(result["rows"], args.plot)
     if args.json:
@@ -304,10 +302,10 @@ def _policy_arg(text: str) -> dict:
     text = text.strip()
     if text.startswith("{"):
         try:
-            d = json.loads(text)
+            parsed = json.loads(text)
         except json.JSONDecodeError as e:
             raise CLIError(f"--policy = {text!r}: malformed JSON: {e}") from None
-        return d
+        return parsed
     if text.endswith(".zip"):
         return {"name": "agent", "path": text}
     name, _, rest = text.partition(":")
@@ -323,11 +321,11 @@ def _policy_arg(text: str) -> dict:
 
 def cmd_score(args: argparse.Namespace) -> int:
     from evertgym.design import TubeDesign
+    from evertgym.experiments.sweep import design_from_flags, plot_summary, sweep_specs
+    from evertgym.experiments.trial import run_trial
     from evertgym.scoring.runner import run_trials
     from evertgym.scoring.stats import summarize
     from evertgym.scoring.store import ResultStore
-    from evertgym.scoring.sweep import design_from_flags, plot_summary, sweep_specs
-    from evertgym.scoring.trial import run_trial
 
     designs: dict[str, dict] = {}
     for path in args.design or []:
@@ -357,15 +355,15 @@ def cmd_score(args: argparse.Namespace) -> int:
         return 0
     print(f"{'design':>14} {'n':>5} {'success':>8} {'95% CI':>15} {'time_s':>7} {'peak_kpa':>9} {'max_force_n':>11}   (medians)")
     for r in rows:
-        med = lambda k: "-" if r.get(k) is None else f"{r[k]:.2f}"  # noqa: E731
+        t, pk, f = ("-" if r.get(k) is None else f"{r[k]:.2f}" for k in ("median_time_s", "median_peak_pressure_kpa", "median_max_contact_force_n"))
         ci = f"[{r['success_ci_lo']:.2f}, {r['success_ci_hi']:.2f}]"
-        print(f"{r['design_name']:>14} {r['n']:>5} {r['success_rate']:>8.2f} {ci:>15} {med('median_time_s'):>7} {med('median_peak_pressure_kpa'):>9} {med('median_max_contact_force_n'):>11}")
+        print(f"{r['design_name']:>14} {r['n']:>5} {r['success_rate']:>8.2f} {ci:>15} {t:>7} {pk:>9} {f:>11}")
     print(f"store: {args.db}")
     return 0
 
 
 def cmd_optimize(args: argparse.Namespace) -> int:
-    from evertgym.scoring.optimize import optimize_bands
+    from evertgym.experiments.optimize import optimize_bands
 
     try:
         params = json.loads(args.scene_params)

@@ -26,9 +26,10 @@ from __future__ import annotations
 import json
 import math
 import sys
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -37,8 +38,7 @@ else:  # pragma: no cover - exercised on Python 3.10 only
 
 import tomli_w
 
-from evertgym.model.params import load_params
-from evertgym.model.pressure import InflatedBeamLaw
+from evertgym._validate import check_range
 
 #: Reductions at or above this never everted in the paper (the seal ruptured first).
 MAX_REDUCTION = 0.6
@@ -61,15 +61,7 @@ def _finite(name: str, value: Any) -> float:
 
 
 def _in_range(name: str, value: Any, lo: float, hi: float, *, lo_open: bool, hi_open: bool, unit: str = "") -> float:
-    v = _finite(name, value)
-    ok_lo = v > lo if lo_open else v >= lo
-    ok_hi = v < hi if hi_open else v <= hi
-    if not (ok_lo and ok_hi):
-        lb = "(" if lo_open else "["
-        rb = ")" if hi_open else "]"
-        u = f" {unit}" if unit else ""
-        raise DesignError(f"{name} = {value!r} is out of range: allowed {lb}{lo:g}, {hi:g}{rb}{u}")
-    return v
+    return check_range(name, _finite(name, value), lo, hi, lo_open=lo_open, hi_open=hi_open, unit=unit, error=DesignError)
 
 
 @dataclass(frozen=True)
@@ -159,14 +151,7 @@ class TubeDesign:
     def radius_m(self) -> float:
         return self.diameter_m / 2
 
-    def pressure_law(self) -> InflatedBeamLaw:
-        """The design's :class:`InflatedBeamLaw`, calibrated values where not overridden."""
-        p = load_params()
-        kappa = p.pressure_stiffening if self.pressure_stiffening is None else self.pressure_stiffening
-        e_m = p.membrane_modulus_pa if self.membrane_modulus_pa is None else self.membrane_modulus_pa
-        return InflatedBeamLaw(e_m, kappa, self.radius_m, self.wall_thickness_m, p.poisson_ratio)
-
-    def with_bands_from_tip(self, distances_m: Iterable[float], reduction: float, width_m: float = 0.015) -> "TubeDesign":
+    def with_bands_from_tip(self, distances_m: Iterable[float], reduction: float, width_m: float = 0.015) -> TubeDesign:
         """A copy whose bands sit at the given distances from the tip (m)."""
         bands = tuple(Band(self.length_m - d, reduction, width_m) for d in distances_m)
         return TubeDesign(
@@ -197,7 +182,7 @@ class TubeDesign:
         return d
 
     @classmethod
-    def from_dict(cls, d: Any) -> "TubeDesign":
+    def from_dict(cls, d: Any) -> TubeDesign:
         """Parse the file structure; every malformed field raises :class:`DesignError`."""
         if not isinstance(d, dict):
             raise DesignError(f"design file must hold a table/object, got {type(d).__name__}")
@@ -252,7 +237,7 @@ class TubeDesign:
             path.write_text(json.dumps(self.to_dict(), indent=2) + "\n", encoding="utf-8")
 
     @classmethod
-    def load(cls, path: str | Path) -> "TubeDesign":
+    def load(cls, path: str | Path) -> TubeDesign:
         """Read a TOML or JSON design file."""
         path = Path(path)
         text = path.read_text(encoding="utf-8")

@@ -5,8 +5,9 @@ import json
 import pytest
 
 from evertgym.cli import main
+from evertgym.experiments.stiffness import reproduce_stiffness
 from evertgym.model.params import load_params
-from evertgym.model.stiffness import paper_rows, reproduce_stiffness
+from evertgym.model.stiffness import paper_rows
 
 
 @pytest.fixture(scope="module")

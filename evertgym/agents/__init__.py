@@ -1,5 +1,12 @@
 """The agents layer: baseline pressure policies, SB3 training and evaluation."""
 
-from evertgym.agents.baselines import ConstantPressure, OperatorProtocol, Policy, PressureCycling, make_baseline, pressure_to_action
+from evertgym.agents.baselines import (
+    ConstantPressure,
+    OperatorProtocol,
+    Policy,
+    PressureCycling,
+    pressure_to_action,
+)
+from evertgym.agents.policies import make_baseline, make_policy
 
-__all__ = ["ConstantPressure", "OperatorProtocol", "Policy", "PressureCycling", "make_baseline", "pressure_to_action"]
+__all__ = ["ConstantPressure", "OperatorProtocol", "Policy", "PressureCycling", "make_baseline", "make_policy", "pressure_to_action"]

@@ -7,7 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from evertgym.agents.baselines import Policy, make_baseline
+from evertgym.agents.baselines import BASELINES, Policy
+from evertgym.agents.tuned import load_tuned
 
 
 class SB3Policy(Policy):
@@ -76,19 +77,36 @@ class SB3Policy(Policy):
         return np.clip(action, -1.0, 1.0).astype(np.float32).reshape(1)
 
 
-def make_policy(desc: dict | str) -> Policy:
-    """``{"name": "constant", "pressure_kpa": 3}``, ``"operator"``, ``{"name": "agent", "path": ...,
-    "deterministic": ...}`` or the path of a saved model, optionally with its action mode
-    (``"model.zip:stochastic"``, ``"model.zip:deterministic"``)."""
+def make_baseline(name: str, **kwargs) -> Policy:
+    """A baseline policy by name (``constant``, ``operator``, ``cycle``, ``tuned``) with its parameters."""
+    if name == "tuned":
+        return load_tuned(**kwargs)
+    if name not in BASELINES:
+        raise ValueError(f"unknown baseline {name!r}: allowed {sorted(BASELINES) + ['tuned']}")
+    return BASELINES[name](**kwargs)
+
+
+def policy_desc(desc: dict | str) -> dict:
+    """A policy description as a dict with a ``name``: ``"operator"`` -> ``{"name": "operator"}``,
+    ``"model.zip"`` (optionally ``"model.zip:deterministic"`` / ``":stochastic"``) ->
+    ``{"name": "agent", "path": ..., ...}``; dicts pass through (copied)."""
     if isinstance(desc, str):
         path, _, mode = desc.partition(".zip:")
         if mode:  # "model.zip:deterministic" or "model.zip:stochastic"
             if mode not in ("deterministic", "stochastic"):
                 raise ValueError(f"policy = {desc!r}: the mode after '.zip:' must be 'deterministic' or 'stochastic'")
-            desc = {"name": "agent", "path": path + ".zip", "deterministic": mode == "deterministic"}
-        else:
-            desc = {"name": "agent", "path": desc} if desc.endswith(".zip") else {"name": desc}
-    desc = dict(desc)
+            return {"name": "agent", "path": path + ".zip", "deterministic": mode == "deterministic"}
+        return {"name": "agent", "path": desc} if desc.endswith(".zip") else {"name": desc}
+    if not isinstance(desc, dict):
+        raise ValueError(f"policy = {desc!r}: allowed a name, a model path or a dict with a name")
+    return dict(desc)
+
+
+def make_policy(desc: dict | str) -> Policy:
+    """``{"name": "constant", "pressure_kpa": 3}``, ``"operator"``, ``{"name": "agent", "path": ...,
+    "deterministic": ...}`` or the path of a saved model, optionally with its action mode
+    (``"model.zip:stochastic"``, ``"model.zip:deterministic"``)."""
+    desc = policy_desc(desc)
     name = desc.pop("name", None)
     if name == "agent":
         return SB3Policy(desc["path"], desc.get("deterministic"))

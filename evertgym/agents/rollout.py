@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import gymnasium as gym
+import numpy as np
 
 from evertgym.agents.policies import make_policy
 
@@ -13,8 +14,6 @@ def rollout_gif(policy_desc: str, env_id: str, out: str | Path, seed: int = 0, e
     """Run one episode with ``render_mode="rgb_array"``; every ``every``-th frame goes to ``out``.
     Returns the outcome and the pressure command of every control step (``command_kpa``)."""
     from PIL import Image
-
-    import evertgym  # noqa: F401
 
     out = Path(out)
     if out.suffix.lower() != ".gif":
@@ -28,13 +27,13 @@ def rollout_gif(policy_desc: str, env_id: str, out: str | Path, seed: int = 0, e
     k = 0
     while True:
         obs, _, term, trunc, info = env.step(policy.act(obs, info))
-        commands.append(round(env.unwrapped.command_pa / 1e3, 2))
+        commands.append(round(env.unwrapped.command_pa / 1e3, 2))  # type: ignore[attr-defined]
         k += 1
         if k % every == 0 or term or trunc:
             frames.append(env.render())
         if term or trunc:
             break
-    images = [Image.fromarray(f) for f in frames]
+    images = [Image.fromarray(np.asarray(f)) for f in frames]
     out.parent.mkdir(parents=True, exist_ok=True)
     fps = env.metadata.get("render_fps", 10) / every
     images[0].save(out, save_all=True, append_images=images[1:], duration=int(1000 / fps), loop=0)

@@ -70,7 +70,6 @@ def load_config(path: str | Path) -> dict:
 
 def _make_env_fn(env_id: str, env_kwargs: dict, rank: int, seed: int):
     def make():
-        import evertgym  # noqa: F401  (registers the envs in the worker)
         from stable_baselines3.common.monitor import Monitor
 
         env = Monitor(gym.make(env_id, **env_kwargs))
@@ -100,11 +99,16 @@ def _latest_checkpoint(ckpt_dir: Path, normalize: bool) -> tuple[Path, int] | No
 
 def train(config_path: str | Path, out_dir: str | Path = "runs", resume: bool = False, progress: bool = True) -> dict:
     """Train (or resume) the config's agent; returns the final evaluation summary."""
-    from stable_baselines3 import PPO, SAC
-    from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback
-    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecNormalize
-
     import torch
+    from stable_baselines3 import PPO, SAC
+    from stable_baselines3.common.base_class import BaseAlgorithm
+    from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback
+    from stable_baselines3.common.vec_env import (
+        DummyVecEnv,
+        SubprocVecEnv,
+        VecEnv,
+        VecNormalize,
+    )
 
     torch.set_num_threads(1)  # small MLPs: threads only fight the env workers for the cores
     cfg = load_config(config_path)
@@ -113,8 +117,9 @@ def train(config_path: str | Path, out_dir: str | Path = "runs", resume: bool = 
     ckpt_dir.mkdir(parents=True, exist_ok=True)
     n_envs, seed = cfg.get("n_envs", 1), cfg.get("seed", 0)
     fns = [_make_env_fn(cfg["env_id"], cfg.get("env_kwargs", {}), i, seed) for i in range(n_envs)]
-    venv = SubprocVecEnv(fns) if n_envs > 1 else DummyVecEnv(fns)
-    algo_cls = {"ppo": PPO, "sac": SAC}[cfg["algo"]]
+    venv: VecEnv = SubprocVecEnv(fns) if n_envs > 1 else DummyVecEnv(fns)
+    algos: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "sac": SAC}
+    algo_cls = algos[cfg["algo"]]
     latest = _latest_checkpoint(ckpt_dir, cfg.get("normalize", False)) if resume else None
     if latest is not None:
         ckpt, steps = latest
@@ -146,10 +151,10 @@ def train(config_path: str | Path, out_dir: str | Path = "runs", resume: bool = 
     model.save(str(run_dir / "final"))
     # the observation options the policy was trained with travel with it
     (run_dir / "final_env.json").write_text(json.dumps({"env_id": cfg["env_id"], "env_kwargs": cfg.get("env_kwargs", {})}, indent=2))
-    if cfg.get("normalize", False):
+    if isinstance(venv, VecNormalize):
         venv.save(str(run_dir / "final_vecnormalize.pkl"))
     venv.close()
-    summary = {"num_timesteps": int(model.num_timesteps)}
+    summary: dict[str, Any] = {"num_timesteps": int(model.num_timesteps)}
     if cfg.get("eval_episodes", 0) > 0:
         from evertgym.agents.evaluate import evaluate
 

@@ -3,15 +3,15 @@
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from evertgym._validate import check_range
 from evertgym.design import Band, TubeDesign
 from evertgym.env.presets import sample_params
-from evertgym.scenes import SceneSpec, make_scene, render_rgb
+from evertgym.scenes import Scene, SceneSpec, make_scene, render_rgb
 from evertgym.sim import EversionSim, SimConfig
 from evertgym.sim.growth import MAX_PRESSURE_PA
 
@@ -108,14 +108,14 @@ class EversionEnv(gym.Env):
         if not (math.isfinite(elo) and math.isfinite(ehi) and elo <= ehi):
             raise ValueError(f"entry_offset_mm = {entry_offset_mm!r}: expected [lo, hi] with lo <= hi (mm)")
         self.entry_offset = (elo / 1e3, ehi / 1e3)
-        _positive("control_hz", control_hz, 1000.0, "Hz")
-        _positive("max_episode_s", max_episode_s, 1e5, "s")
+        check_range("control_hz", control_hz, 0.0, 1000.0, lo_open=True, unit="Hz")
+        check_range("max_episode_s", max_episode_s, 0.0, 1e5, lo_open=True, unit="s")
         if action_mode not in ("absolute", "increment"):
             raise ValueError(f"action_mode = {action_mode!r}: allowed 'absolute' or 'increment'")
-        _positive("max_increment_kpa", max_increment_kpa, 8.0, "kPa")
+        check_range("max_increment_kpa", max_increment_kpa, 0.0, 8.0, lo_open=True, unit="kPa")
         if not (isinstance(history, int) and 0 <= history <= 100):
             raise ValueError(f"history = {history!r} is out of range: allowed integers in [0, 100]")
-        _positive("rupture_kpa", rupture_kpa, 1e3, "kPa")
+        check_range("rupture_kpa", rupture_kpa, 0.0, 1e3, lo_open=True, unit="kPa")
         for name, w in (("progress_weight", progress_weight), ("pressure_weight", pressure_weight),
                         ("contact_weight", contact_weight), ("stall_weight", stall_weight), ("success_weight", success_weight)):
             if not (math.isfinite(w) and w >= 0):
@@ -138,12 +138,26 @@ class EversionEnv(gym.Env):
         self.action_space = spaces.Box(-1.0, 1.0, (1,), np.float32)
         n = 3 * (history + 1) + (2 if tip_sensing else 0) + (2 * len(_LOOKAHEAD_M) if scene_ahead else 0)
         self.observation_space = spaces.Box(-10.0, 10.0, (n,), np.float32)
-        self.sim: EversionSim | None = None
-        self.scene = None
+        self._sim: EversionSim | None = None
+        self._scene: Scene | None = None
         self._fig = None
 
+    @property
+    def sim(self) -> EversionSim:
+        """The episode's simulator (after :meth:`reset`)."""
+        if self._sim is None:
+            raise RuntimeError("call reset() before using the simulator")
+        return self._sim
+
+    @property
+    def scene(self) -> Scene:
+        """The episode's scene (after :meth:`reset`)."""
+        if self._scene is None:
+            raise RuntimeError("call reset() before using the scene")
+        return self._scene
+
     # ---- episode --------------------------------------------------------------
-    def _draw_episode(self, scene_seed: int | None) -> tuple[Any, TubeDesign, np.ndarray]:
+    def _draw_episode(self, scene_seed: int | None) -> tuple[Scene, TubeDesign, np.ndarray]:
         rng = self.np_random
         params = sample_params(dict(self.scene_cfg.get("params", {})), rng)
         seed = self.scene_cfg.get("seed", "episode")
@@ -169,8 +183,8 @@ class EversionEnv(gym.Env):
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
         scene_seed = (options or {}).get("scene_seed")
-        self.scene, design, base = self._draw_episode(scene_seed)
-        self.sim = EversionSim(design, scene=self.scene, config=self.sim_config, base=tuple(base))
+        self._scene, design, base = self._draw_episode(scene_seed)
+        self._sim = EversionSim(design, scene=self._scene, config=self.sim_config, base=tuple(base))
         self.command_pa = 0.0
         self._s_tip = self._tip_arclength()
         self._hist = [self._sample()] * (self.history + 1)
@@ -182,7 +196,7 @@ class EversionEnv(gym.Env):
         a = np.asarray(action, dtype=np.float64).reshape(-1)
         if a.shape != (1,) or not np.all(np.isfinite(a)):
             raise ValueError(f"action = {action!r}: expected one finite number in [-1, 1] (NaN and inf are rejected)")
-        if self.sim is None:
+        if self._sim is None:
             raise RuntimeError("call reset() before step()")
         u = float(np.clip(a[0], -1.0, 1.0))
         if self.action_mode == "absolute":
@@ -235,7 +249,7 @@ class EversionEnv(gym.Env):
         sim = self.sim
         if self.tip_sensing:
             f_ref = MAX_PRESSURE_PA * math.pi * sim.design.radius_m**2
-            parts += [sim.tip_force / f_ref, 1.0 if sim._in_contact else 0.0]
+            parts += [sim.tip_force / f_ref, 1.0 if sim.in_contact else 0.0]
         if self.scene_ahead:
             scene = self.scene
             t = sim.tip_direction
@@ -262,7 +276,7 @@ class EversionEnv(gym.Env):
 
     # ---- rendering -----------------------------------------------------------------
     def render(self):
-        if self.render_mode is None or self.sim is None:
+        if self.render_mode is None or self._sim is None:
             return None
         img = render_rgb(self.scene, self.sim.centreline(), self.sim.design.radius_m)
         if self.render_mode == "rgb_array":
@@ -288,6 +302,4 @@ class EversionEnv(gym.Env):
             self._fig = None
 
 
-def _positive(name: str, value: float, hi: float, unit: str) -> None:
-    if not (isinstance(value, (int, float)) and math.isfinite(value) and 0 < value <= hi):
-        raise ValueError(f"{name} = {value!r} is out of range: allowed (0, {hi:g}] {unit}")
+

@@ -19,7 +19,7 @@ import numpy as np
 
 from evertgym.design import TubeDesign
 from evertgym.model.params import ModelParams, load_params
-from evertgym.model.pressure import collapse_moment, wrinkling_moment
+from evertgym.model.pressure import InflatedBeamLaw, collapse_moment, wrinkling_moment
 
 
 def alpha_of_reduction(rho: float | np.ndarray, params: ModelParams | None = None) -> float | np.ndarray:
@@ -61,7 +61,7 @@ class BandZone:
     def end_m(self) -> float:
         return self.centre_m + self.half_strip_m + self.taper_m
 
-    def shape(self, s: np.ndarray) -> np.ndarray:
+    def shape(self, s: float | np.ndarray) -> np.ndarray:
         """1 on the strip, falling linearly to 0 across the taper, 0 outside."""
         d = np.abs(np.asarray(s, dtype=float) - self.centre_m) - self.half_strip_m
         if self.taper_m <= 0:
@@ -85,7 +85,7 @@ class TubeSection:
         self.design = design
         self.params = params or load_params()
         self.pressure_pa = float(pressure_pa)
-        law = design.pressure_law()
+        law = InflatedBeamLaw.for_design(design)
         self.e_eff_pa = law.effective_modulus(pressure_pa)
         self.g_eff_pa = law.shear_modulus(pressure_pa)
         self.r0 = design.radius_m
@@ -114,7 +114,7 @@ class TubeSection:
             pts += [z.start_m, z.centre_m - z.half_strip_m, z.centre_m + z.half_strip_m, z.end_m]
         return sorted(pts)
 
-    def _reduction_and_alpha(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _reduction_and_alpha(self, s: float | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         s = np.asarray(s, dtype=float)
         rho = np.zeros_like(s)
         alpha = np.ones_like(s)

@@ -15,11 +15,14 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from types import MappingProxyType
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
+
+from evertgym.scenes.registry import FAMILIES
 
 
 class SceneError(ValueError):
@@ -134,8 +137,6 @@ class SceneSpec:
     seed: int | None = None
 
     def __post_init__(self) -> None:
-        from evertgym.scenes.families import FAMILIES
-
         if self.family not in FAMILIES:
             raise SceneError(
                 f"unknown scene family {self.family!r}: allowed families are {', '.join(sorted(FAMILIES))}"
@@ -169,7 +170,7 @@ class SceneSpec:
         }
 
     @classmethod
-    def from_dict(cls, d: Mapping[str, Any]) -> "SceneSpec":
+    def from_dict(cls, d: Mapping[str, Any]) -> SceneSpec:
         """Inverse of :meth:`to_dict`; ``params`` and ``seed`` may be omitted."""
         if not isinstance(d, Mapping) or "family" not in d:
             raise SceneError(f"a scene spec needs a 'family' key: got {d!r}")
@@ -180,7 +181,7 @@ class SceneSpec:
             )
         return cls(family=d["family"], params=dict(d.get("params") or {}), seed=d.get("seed"))
 
-    def with_params(self, **params: Any) -> "SceneSpec":
+    def with_params(self, **params: Any) -> SceneSpec:
         """A copy with some parameters replaced or added."""
         return SceneSpec(self.family, {**self.params, **params}, self.seed)
 

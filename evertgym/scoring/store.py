@@ -21,9 +21,10 @@ from __future__ import annotations
 
 import json
 import sqlite3
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Iterable, Iterator, Mapping
+from typing import Any
 
 from evertgym.scoring.provenance import run_metadata, utc_now
 from evertgym.scoring.spec import TrialResult, TrialSpec, canonical_json, check_result
@@ -98,7 +99,7 @@ class ResultStore:
         self._db.execute(f"PRAGMA user_version={SCHEMA_VERSION}")
         self._default_meta: dict[str, Any] | None = None
 
-    def __enter__(self) -> "ResultStore":
+    def __enter__(self) -> ResultStore:
         return self
 
     def __exit__(self, *exc: object) -> None:

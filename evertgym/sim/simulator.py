@@ -27,14 +27,14 @@ import numpy as np
 import pymunk
 
 from evertgym.design import TubeDesign
+from evertgym.model.eversion import EversionThreshold, tail_weight_pressure
 from evertgym.model.params import ModelParams, load_params
-from evertgym.model.pressure import KINK_MOMENT_FRACTION
+from evertgym.model.pressure import KINK_MOMENT_FRACTION, InflatedBeamLaw
 from evertgym.model.section import TubeSection
 from evertgym.sim.config import SimConfig
 from evertgym.sim.discretize import hat_compliance, joint_moment, segment_inertia
-from evertgym.sim.links import Link, make_link
-from evertgym.model.eversion import EversionThreshold, tail_weight_pressure
 from evertgym.sim.growth import GrowthLaw, PressureRegulator
+from evertgym.sim.links import Link, make_link
 
 ROBOT_COLLISION_TYPE = 1
 _ROBOT_GROUP = 1
@@ -116,7 +116,7 @@ class EversionSim:
         self._cs_ref = hat_compliance(self._ref_section, self.nodes, design.length_m, shear=True)
         r_cell = np.array([float(np.min(self._ref_section.radius(np.linspace(max(s - ds / 2, 0), s + ds / 2, 17)))) for s in self.nodes])
         self._r3 = r_cell**3
-        self._law = design.pressure_law()
+        self._law = InflatedBeamLaw.for_design(design)
         seg_s = np.linspace(0, design.length_m, int(design.length_m / (ds / 8)) + 2)
         self._radius_fine = (seg_s, self._ref_section.radius(seg_s))
 
@@ -295,7 +295,13 @@ class EversionSim:
 
     @property
     def kinked_joints(self) -> list[int]:
+        """Joints past the kink fraction of their collapse moment, base first."""
         return sorted(self._kinked)
+
+    @property
+    def in_contact(self) -> bool:
+        """Whether the tip segment touched a wall in the last step."""
+        return self._in_contact
 
     def _event(self, kind: str, **detail) -> None:
         self.events.append(SimEvent(round(self.t, 6), kind, round(self.length * 1e3, 3), detail))

@@ -74,9 +74,9 @@ def colon_specs() -> list[TrialSpec]:
 
 
 def _run(specs, store_path, backend, workers, progress):
+    from evertgym.experiments.trial import run_trial
     from evertgym.scoring.runner import run_trials
     from evertgym.scoring.store import ResultStore
-    from evertgym.scoring.trial import run_trial
 
     with ResultStore(store_path) as store:
         return run_trials(specs, run_trial, store, backend=backend, workers=workers, progress=progress)
@@ -87,9 +87,9 @@ def _reduction(rec) -> float:
 
 
 def ubend_jam_rows(records) -> list[dict]:
-    """Per design and radius: trials, successes and :func:`~evertgym.scoring.jam.summarise_jams`
+    """Per design and radius: trials, successes and :func:`~evertgym.experiments.jam.summarise_jams`
     over the failed trials' jam anatomy."""
-    from evertgym.scoring.jam import summarise_jams
+    from evertgym.experiments.jam import summarise_jams
 
     groups: dict[tuple[float, float], list] = {}
     for rec in records:
@@ -97,7 +97,8 @@ def ubend_jam_rows(records) -> list[dict]:
     rows = []
     for (red, r), recs in sorted(groups.items(), key=lambda kv: (kv[0][0], -kv[0][1])):
         jams = [rec.result["jam"] for rec in recs if not rec.result["success"] and "jam" in rec.result]
-        rows.append({"reduction": red, "radius_mm": r, "trials": len(recs), "successes": sum(bool(x.result["success"]) for x in recs), **summarise_jams(jams)})
+        successes = sum(bool(x.result["success"]) for x in recs)
+        rows.append({"reduction": red, "radius_mm": r, "trials": len(recs), "successes": successes, **summarise_jams(jams)})
     return rows
 
 
@@ -116,7 +117,7 @@ UBEND_JAM_LEAD = (("design", "design"), ("radius mm", "radius_mm"), ("passed", "
 
 def ubend_jam_table(jam_rows: list[dict]) -> str:
     """The markdown table of :func:`ubend_jam_rows`."""
-    from evertgym.scoring.jam import jam_table
+    from evertgym.experiments.jam import jam_table
 
     named = [{**r, "design": "no bands" if r["reduction"] == 0 else f"3 x {round(r['reduction'] * 100)}%",
               "passed": f"{r['successes']}/{r['trials']}", "radius_mm": f"{r['radius_mm']:g}"} for r in jam_rows]
@@ -149,8 +150,7 @@ def plot_ubend(result: dict, path: str | Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from evertgym.plots import save_figure
-
+    from evertgym.experiments.plots import save_figure
     from evertgym.model.params import load_measurements
 
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
@@ -161,8 +161,10 @@ def plot_ubend(result: dict, path: str | Path) -> Path:
                     label="sim, no bands" if red == 0 else f"sim, 3 x {round(red * 100)}%")
     paper = load_measurements()["u_bend_validation"]["success_rate"]
     nb = paper["no_bands"]
-    ax.plot([37.5, 35.0, 32.5, 30.0, 27.5, 25.0, 22.5, 20.0], [nb["37.5"], nb["35.0"], nb["32.5"]] + [nb["below_32.5"]] * 5, "k--", alpha=0.5, label="paper, no bands")
-    ax.plot([25.0, 20.0], [paper["bands_10pct"]["25.0"], paper["bands_10pct"]["20.0"]], "s", color="tab:blue", alpha=0.6, label="paper, 10% (25, 20 mm)")
+    ax.plot([37.5, 35.0, 32.5, 30.0, 27.5, 25.0, 22.5, 20.0], [nb["37.5"], nb["35.0"], nb["32.5"]] + [nb["below_32.5"]] * 5,
+            "k--", alpha=0.5, label="paper, no bands")
+    ax.plot([25.0, 20.0], [paper["bands_10pct"]["25.0"], paper["bands_10pct"]["20.0"]], "s", color="tab:blue", alpha=0.6,
+            label="paper, 10% (25, 20 mm)")
     ax.set_xlabel("U-bend inner radius (mm)")
     ax.set_ylabel("success rate")
     ax.invert_xaxis()
