@@ -138,4 +138,7 @@ def make_baseline(name: str, **kwargs) -> Policy:
         return load_tuned(**kwargs)
     if name not in BASELINES:
         raise ValueError(f"unknown baseline {name!r}: allowed {sorted(BASELINES) + ['tuned']}")
-    return BASELINES[name](**kwargs)
+    try:
+        return BASELINES[name](**kwargs)
+    except TypeError as e:  # an unknown parameter: name it, as for any bad field
+        raise ValueError(f"policy {name!r}: {e}") from None

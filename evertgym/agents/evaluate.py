@@ -9,6 +9,7 @@ import numpy as np
 
 from evertgym.agents.policies import make_policy
 from evertgym.env.eversion_env import HELD_OUT_SEED_BASE
+from evertgym.limits import MAX_EPISODES
 from evertgym.scoring.stats import wilson_interval
 
 
@@ -21,11 +22,11 @@ def run_episode(env, policy, seed: int) -> dict:
             return info
 
 
-def _run_episodes(desc: str | dict, env_id: str, env_kwargs: dict | None, seeds: list[int]) -> list[dict]:
+def _run_episodes(desc: str | dict, env_id: str, env_kwargs: dict | None, seeds: list[int], trust: bool = False) -> list[dict]:
     """Final ``info`` of one episode per seed (episode and scene seed alike) for one policy."""
     import evertgym  # noqa: F401  (registers the envs)
 
-    policy = make_policy(desc)
+    policy = make_policy(desc, trust=trust)
     # observation flags a trained model needs; they do not change the physics
     env = gym.make(env_id, **{**(env_kwargs or {}), **getattr(policy, "env_kwargs", {})})
     try:
@@ -41,13 +42,14 @@ def _worker_init() -> None:
 
 
 def evaluate(policies: list[str | dict], env_id: str, episodes: int, env_kwargs: dict | None = None,
-             seed_base: int = HELD_OUT_SEED_BASE, workers: int = 1) -> list[dict]:
+             seed_base: int = HELD_OUT_SEED_BASE, workers: int = 1, trust: bool = False) -> list[dict]:
     """One row per policy: success rate (Wilson 95%), mean time to goal, peak pressure and
     max contact force over ``episodes`` episodes whose seeds (and scene seeds) are
     ``seed_base + i``, the same for every policy.  ``workers > 1`` spreads the episodes
-    over that many processes; every episode is seeded, so the rows do not change."""
-    if not (isinstance(episodes, int) and episodes >= 1):
-        raise ValueError(f"episodes = {episodes!r} is out of range: allowed integers >= 1")
+    over that many processes; every episode is seeded, so the rows do not change.
+    ``trust=True`` loads saved models that are not shipped policies (model files are code)."""
+    if not (isinstance(episodes, int) and 1 <= episodes <= MAX_EPISODES):
+        raise ValueError(f"episodes = {episodes!r} is out of range: allowed integers in [1, {MAX_EPISODES}]")
     if not (isinstance(workers, int) and workers >= 1):
         raise ValueError(f"workers = {workers!r} is out of range: allowed integers >= 1")
     seeds = [seed_base + i for i in range(episodes)]
@@ -58,10 +60,10 @@ def evaluate(policies: list[str | dict], env_id: str, episodes: int, env_kwargs:
         from concurrent.futures import ProcessPoolExecutor
 
         with ProcessPoolExecutor(len(chunks), mp_context=mp.get_context("spawn"), initializer=_worker_init) as pool:
-            futures = [[pool.submit(_run_episodes, desc, env_id, env_kwargs, c) for c in chunks] for desc in policies]
+            futures = [[pool.submit(_run_episodes, desc, env_id, env_kwargs, c, trust) for c in chunks] for desc in policies]
             results = [[info for f in fs for info in f.result()] for fs in futures]
     else:
-        results = [_run_episodes(desc, env_id, env_kwargs, seeds) for desc in policies]
+        results = [_run_episodes(desc, env_id, env_kwargs, seeds, trust) for desc in policies]
     rows = []
     for desc, infos in zip(policies, results):
         wins = [i for i in infos if i["success"]]

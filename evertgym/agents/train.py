@@ -153,7 +153,8 @@ def train(config_path: str | Path, out_dir: str | Path = "runs", resume: bool = 
     if cfg.get("eval_episodes", 0) > 0:
         from evertgym.agents.evaluate import evaluate
 
-        rows = evaluate([str(run_dir / "final.zip"), "operator"], cfg["env_id"], cfg["eval_episodes"], env_kwargs=cfg.get("env_kwargs", {}))
+        # the run wrote final.zip itself: trusted
+        rows = evaluate([str(run_dir / "final.zip"), "operator"], cfg["env_id"], cfg["eval_episodes"], env_kwargs=cfg.get("env_kwargs", {}), trust=True)
         summary["eval"] = rows
     (run_dir / "eval.json").write_text(json.dumps(summary, indent=2))
     return summary
