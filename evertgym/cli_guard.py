@@ -11,12 +11,15 @@ a model the rod solver cannot settle (``RodSolveError``) and missing optional ex
 from __future__ import annotations
 
 import argparse
+import contextlib
 import ipaddress
 import json
 import math
 import os
+import signal
 import sqlite3
 import sys
+import threading
 from pathlib import Path
 from typing import Any, Callable
 from urllib.parse import urlsplit
@@ -39,7 +42,8 @@ def run_command(func: Callable[[argparse.Namespace], int], args: argparse.Namesp
     """Run one command: expected errors -> ``evertgym: error: ...`` on stderr and exit 2;
     Ctrl-C -> one line saying the same command resumes; a closed stdout pipe -> quiet."""
     try:
-        return func(args)
+        with _interruptible():
+            return func(args)
     except KeyboardInterrupt:
         print("evertgym: interrupted; finished trials and checkpoints are kept: rerun the same command to resume",
               file=sys.stderr)
@@ -52,6 +56,33 @@ def run_command(func: Callable[[argparse.Namespace], int], args: argparse.Namesp
         text = " ".join(str(e).split()) or type(e).__name__
         print(f"evertgym: error: {text}", file=sys.stderr)
         return EXIT_USAGE
+
+
+@contextlib.contextmanager
+def _interruptible():
+    """Ctrl-C that reaches Python code: pymunk's C callbacks swallow a KeyboardInterrupt
+    raised inside them ("Exception ignored from cffi callback"), so while one runs the
+    interrupt is redelivered 10 ms later instead."""
+    if not hasattr(signal, "setitimer") or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum, frame):
+        f = frame
+        while f is not None:
+            if "pymunk" in f.f_code.co_filename:
+                signal.setitimer(signal.ITIMER_REAL, 0.01)  # retry once the callback has returned
+                return
+            f = f.f_back
+        raise KeyboardInterrupt
+
+    old_int, old_alrm = signal.signal(signal.SIGINT, handler), signal.signal(signal.SIGALRM, handler)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGINT, old_int)
+        signal.signal(signal.SIGALRM, old_alrm)
 
 
 def no_abbreviations(parser: argparse.ArgumentParser) -> None:

@@ -99,7 +99,7 @@ class EversionEnv(gym.Env):
         render_mode: str | None = None,
     ):
         self.design = design if isinstance(design, TubeDesign) else TubeDesign.from_dict({"tube": {"length_mm": 900.0}} if design is None else design)
-        self.scene_cfg = dict({"family": "ubend", "params": {}} if scene is None else _check_scene(scene, self.design))
+        self.scene_cfg = dict(_check_scene({"family": "ubend", "params": {}} if scene is None else scene, self.design))
         lo, hi = check_pair("band_offset_mm", band_offset_mm, -1e3, 1e3, "mm")
         for off in (lo, hi):  # every band must stay on the body at either end of the range
             try:
