@@ -405,3 +405,13 @@ def test_a_thousand_bands_build():
     assert len(sim._ref_section.zones) == 1000
     with pytest.raises(DesignError, match="at most 1000"):
         TubeDesign(length_m=20.0, bands=tuple(Band(0.01 + 0.0151 * i, 0.1) for i in range(1001)))
+
+
+@pytest.mark.slow
+def test_rss_stays_flat_over_ten_simulated_minutes_of_20_hz_cycling():
+    done = subprocess.run([sys.executable, str(ROOT / "scripts" / "robustness_numbers.py"), "--minutes", "10", "--json"],
+                          capture_output=True, text=True, timeout=3600)
+    assert done.returncode == 0, done.stderr
+    log = json.loads(done.stdout)["event_log"]
+    assert log["events_at_end"] <= log["max_events"]
+    assert log["rss_mib_at_end"] - log["rss_mib_at_1_min"] < 8.0  # the unbounded log grew 15.6 MiB in 3 minutes
