@@ -152,11 +152,16 @@ class _Worker:
     """A subprocess that runs accepted inputs; it dying is the failure the fuzz looks for."""
 
     def __init__(self) -> None:
+        self.runs = 0
+        self._start()
+
+    def _start(self) -> None:
         self.proc = subprocess.Popen([sys.executable, str(WORKER)], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                                      stderr=subprocess.PIPE, text=True)
-        self.runs = 0
 
     def run(self, kind: str, data) -> str:
+        if self.proc.poll() is not None:  # died on an earlier example (already reported): a fresh one
+            self._start()
         self.proc.stdin.write(json.dumps({"kind": kind, "input": data}) + "\n")
         self.proc.stdin.flush()
         reply = self.proc.stdout.readline()

@@ -157,6 +157,7 @@ def test_the_simulator_refuses_bodies_it_cannot_build_before_chipmunk_sees_them(
         (dict(scene={"family": "ubend", "params": {"radius_mm": {"uniform": [25, 90]}}}), "radius_mm"),
         (dict(scene={"family": "ubend", "colour": "red"}), "colour"),
         (dict(scene="ubend"), "scene"),
+        (dict(scene={"family": "bend", "params": 0.0}), "params"),  # found by tests/test_fuzz.py
         (dict(design={"tube": {"diameter_mm": 100}}), "diameter_mm"),
         (dict(scene={"family": "ubend", "params": {"lumen_mm": 20}}), "diameter_mm"),
         (dict(control_hz=1000), "control_hz"),

@@ -317,7 +317,9 @@ def _check_scene(scene: Any, design: TubeDesign) -> dict:
     unknown = set(scene) - {"family", "params", "seed"}
     if unknown:
         raise ValueError(f"scene: unknown keys {sorted(unknown)}: allowed family, params, seed")
-    params = scene.get("params") or {}
+    params = scene.get("params", {})
+    if params is None:
+        params = {}
     if not isinstance(params, dict):
         raise ValueError(f"scene.params = {params!r:.80} is not a mapping of parameter names to values")
     seed = scene.get("seed", "episode")
