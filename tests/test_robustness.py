@@ -141,7 +141,7 @@ def test_the_simulator_refuses_bodies_it_cannot_build_before_chipmunk_sees_them(
     from evertgym.sim import EversionSim, SimConfig
 
     with pytest.raises(ValueError, match="length_m"):
-        EversionSim(TubeDesign(length_m=0.03), config=SimConfig(initial_length_m=0.03))
+        EversionSim(TubeDesign(length_m=0.03), config=SimConfig(initial_length_m=0.04))
     with pytest.raises(ValueError, match="diameter_m"):
         EversionSim(TubeDesign(diameter_m=0.1), scene=make_scene(SceneSpec("ubend", {}, 0)))
 
@@ -162,6 +162,7 @@ def test_the_simulator_refuses_bodies_it_cannot_build_before_chipmunk_sees_them(
         (dict(scene={"family": "ubend", "params": {"lumen_mm": 20}}), "diameter_mm"),
         (dict(control_hz=1000), "control_hz"),
         (dict(control_hz=3), "control_hz"),
+        (dict(control_hz=10**400), "control_hz"),  # found by tests/test_fuzz.py
         (dict(entry_offset_mm=(-1e6, 1e6)), "entry_offset_mm"),
         (dict(tip_sensing="no"), "tip_sensing"),
         (dict(scene_ahead=1), "scene_ahead"),

@@ -12,7 +12,7 @@ from gymnasium import spaces
 from evertgym.design import Band, TubeDesign
 from evertgym.env.presets import sample_params
 from evertgym.scenes import SceneSpec, make_scene, render_rgb
-from evertgym._checks import check_bool, check_int, check_pair, check_range
+from evertgym._checks import check_bool, check_int, check_number, check_pair, check_range
 from evertgym.sim import EversionSim, SimConfig
 from evertgym.sim.simulator import check_buildable
 from evertgym.sim.growth import MAX_PRESSURE_PA
@@ -302,7 +302,7 @@ class EversionEnv(gym.Env):
 
 
 def _positive(name: str, value: float, hi: float, unit: str) -> None:
-    if not (isinstance(value, (int, float)) and math.isfinite(value) and 0 < value <= hi):
+    if not 0 < check_number(name, value) <= hi:
         raise ValueError(f"{name} = {value!r} is out of range: allowed (0, {hi:g}] {unit}")
 
 
