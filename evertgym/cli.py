@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from evertgym._validate import check_range
+from evertgym.cli_guard import check_input_file, dumps, no_abbreviations, run_command
 
 
 class CLIError(ValueError):
@@ -84,7 +85,7 @@ def cmd_reproduce_stiffness(args: argparse.Namespace) -> int:
 
         plot_stiffness_curves(_stiffness_curves(result), args.plot)
     if args.json:
-        print(json.dumps(result))
+        print(dumps(result))
         return 0
     print("Virtual tensile test: 6.9 kPa, 20 mm lateral tip displacement, k = F / 0.02 m")
     print(f"parameter file version: {result['params_version']}")
@@ -117,7 +118,7 @@ def cmd_reproduce_eversion(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     result = reproduce_eversion(step_pa=step * 1e3)
     if args.json:
-        print(json.dumps(result))
+        print(dumps(result))
         return 0
     print("Minimum eversion pressure (vertical, against gravity, full eversion within 20 s, <= 8 kPa)")
     print(f"{'reduction':>9} {'measured_kpa':>12} {'sd_kpa':>7} {'simulated_kpa':>13} {'within 1 SD':>11}")
@@ -140,10 +141,10 @@ def cmd_stiffness(args: argparse.Namespace) -> int:
     from evertgym.model.stiffness import tensile_rod
 
     params = load_params()
-    pressure_pa = _check("--pressure-kpa", args.pressure_kpa, 0.0, 8.0, "kPa") * 1e3
+    pressure_pa = _check("--pressure-kpa", args.pressure_kpa, 0.01, 8.0, "kPa (at 0 the wrinkling law switches off)") * 1e3
     disp = _check("--displacement-mm", args.displacement_mm, -60.0, 60.0, "mm") / 1e3
     if args.design:
-        design = TubeDesign.load(args.design)
+        design = TubeDesign.load(check_input_file("--design", args.design))
         if args.bands_from_tip_mm:
             raise CLIError("--bands-from-tip-mm cannot be combined with --design (the file holds the bands)")
     else:
@@ -176,7 +177,7 @@ def cmd_stiffness(args: argparse.Namespace) -> int:
         res = sim_tensile_test(design, disp, pressure_pa, free_mm / 1e3, params=params)
         out.update(sim_force_n=res.force_n, sim_n_per_m=res.n_per_m, sim_converged=res.converged)
     if args.json:
-        print(json.dumps(out))
+        print(dumps(out))
         return 0
     for k, v in out.items():
         print(f"{k:34s} {v:.5g}" if isinstance(v, float) else f"{k:34s} {v}")
@@ -188,7 +189,7 @@ def cmd_bench_accuracy(args: argparse.Namespace) -> int:
 
     result = run_sweep(quick=args.quick)
     if args.json:
-        print(json.dumps({"rows": result["rows"], "default": result["default"]}, default=float))
+        print(dumps({"rows": result["rows"], "default": result["default"]}, default=float))
         return 0
     print(f"{'setting':44s} {'force_err':>9s} {'pose_mm':>8s} {'ubend':>6s} {'wall/sim':>9s}")
     for r in result["rows"]:
@@ -203,7 +204,7 @@ def cmd_bench_peers(args: argparse.Namespace) -> int:
     from evertgym.bench.peers import compare, format_table
 
     result = compare()
-    print(json.dumps(result) if args.json else "\n".join(format_table(result)))
+    print(dumps(result) if args.json else "\n".join(format_table(result)))
     return 0
 
 
@@ -215,7 +216,7 @@ def cmd_bench_pool(args: argparse.Namespace) -> int:
     if not 0.01 <= args.trial_s <= 60:
         raise CLIError(f"--trial-s = {args.trial_s} is out of range: allowed [0.01, 60] s")
     result = bench_pool(args.trials, args.trial_s, real=args.real, dask=not args.no_dask)
-    print(json.dumps(result) if args.json else "\n".join(format_pool(result)))
+    print(dumps(result) if args.json else "\n".join(format_pool(result)))
     return 0
 
 
@@ -232,7 +233,7 @@ def cmd_bench_env(args: argparse.Namespace) -> int:
     ids = args.env or register_envs()
     rows = [bench_env(env_id, args.steps) for env_id in ids]
     if args.json:
-        print(json.dumps({"rows": rows}))
+        print(dumps({"rows": rows}))
         return 0
     print(f"{'env_id':28s} {'steps_per_s':>11s} {'sim_seconds_per_step':>20s} {'steps':>6s}")
     for r in rows:
@@ -245,6 +246,9 @@ def cmd_reproduce_ubend(args: argparse.Namespace) -> int:
 
     if not (1 <= args.trials <= 1000):
         raise CLIError(f"--trials = {args.trials} is out of range: allowed [1, 1000]")
+    from evertgym.limits import check_workers
+
+    check_workers(args.workers, args.force_workers, "--workers")
     result = reproduce_ubend(args.db, trials=args.trials, backend=args.backend, workers=args.workers, progress=not args.json)
     if args.plot:
         plot_ubend(result, args.plot)
@@ -252,7 +256,7 @@ def cmd_reproduce_ubend(args: argparse.Namespace) -> int:
         out = {"rows": result["rows"]}
         if args.anatomy:
             out["jam_anatomy"] = result["jams"]
-        print(json.dumps(out))
+        print(dumps(out))
         return 0
     radii = sorted({r["radius_mm"] for r in result["rows"]}, reverse=True)
     reds = sorted({r["reduction"] for r in result["rows"]})
@@ -282,7 +286,7 @@ def cmd_reproduce_colon(args: argparse.Namespace) -> int:
         plot_pressure_position(result["rows"], args.plot)
     if args.json:
         keys = ("reduction", "passed", "stall_position_mm", "peak_pressure_kpa") + (("jam",) if args.anatomy else ())
-        print(json.dumps({"rows": [{k: r[k] for k in keys} for r in result["rows"]]}))
+        print(dumps({"rows": [{k: r[k] for k in keys} for r in result["rows"]]}))
         return 0
     print("Colon phantom, operator protocol (2 kPa, +0.5 kPa per 1 s stall, up to 8 kPa)")
     for r in result["rows"]:
@@ -320,6 +324,7 @@ def _policy_arg(text: str) -> dict:
 
 
 def cmd_score(args: argparse.Namespace) -> int:
+    from evertgym.cli_guard import check_score_flags
     from evertgym.design import TubeDesign
     from evertgym.experiments.sweep import design_from_flags, plot_summary, sweep_specs
     from evertgym.experiments.trial import run_trial
@@ -329,7 +334,7 @@ def cmd_score(args: argparse.Namespace) -> int:
 
     designs: dict[str, dict] = {}
     for path in args.design or []:
-        designs[Path(path).stem] = TubeDesign.load(path).to_dict()
+        designs[Path(path).stem] = TubeDesign.load(check_input_file("--design", path)).to_dict()
     if args.bands_mm is not None or not designs:
         bands = _float_list("--bands-mm", args.bands_mm or "")
         red = _check("--reduction", args.reduction, 0.0, 0.5999, "(fraction, below 0.6)")
@@ -339,10 +344,9 @@ def cmd_score(args: argparse.Namespace) -> int:
         params = json.loads(args.scene_params)
     except json.JSONDecodeError as e:
         raise CLIError(f"--scene-params = {args.scene_params!r}: malformed JSON: {e}") from None
-    if not (1 <= args.scenes <= 100000 and 1 <= args.trials <= 10000):
-        raise CLIError("--scenes and --trials must be positive (at most 100000 and 10000)")
     episode = {"max_s": args.max_s, "band_offset_mm": [-args.band_jitter_mm, args.band_jitter_mm], "entry_offset_mm": [-5.0, 5.0]}
-    specs = sweep_specs(designs, {"family": args.scene, "params": params}, args.scenes, args.trials, _policy_arg(args.policy), episode)
+    policy = check_score_flags(args, designs, params, episode, _policy_arg(args.policy))
+    specs = sweep_specs(designs, {"family": args.scene, "params": params}, args.scenes, args.trials, policy, episode)
     Path(args.db).parent.mkdir(parents=True, exist_ok=True)
     with ResultStore(args.db) as store:
         kw = {"address": args.address} if args.address else {"workers": args.workers}
@@ -351,7 +355,7 @@ def cmd_score(args: argparse.Namespace) -> int:
     if args.plot:
         plot_summary(rows, args.plot)
     if args.json:
-        print(json.dumps({"rows": rows}, default=float))
+        print(dumps({"rows": rows}, default=float))
         return 0
     print(f"{'design':>14} {'n':>5} {'success':>8} {'95% CI':>15} {'time_s':>7} {'peak_kpa':>9} {'max_force_n':>11}   (medians)")
     for r in rows:
@@ -369,14 +373,16 @@ def cmd_optimize(args: argparse.Namespace) -> int:
         params = json.loads(args.scene_params)
     except json.JSONDecodeError as e:
         raise CLIError(f"--scene-params = {args.scene_params!r}: malformed JSON: {e}") from None
-    Path(args.study).parent.mkdir(parents=True, exist_ok=True)
+    from evertgym.cli_guard import check_optimize_flags
+
+    check_optimize_flags(args)
     out = optimize_bands(
         {"family": args.scene, "params": params}, args.study, args.db, n_trials=args.trials, n_scenes=args.scenes,
         trials_per_scene=args.trials_per_scene, held_out_scenes=args.held_out, budget_kpa=args.budget_kpa,
         policy=args.policy, backend=args.backend,
     )
     if args.json:
-        print(json.dumps(out, default=float))
+        print(dumps(out, default=float))
         return 0
     print(f"best after {out['trials']} designs: {out['best_params']}")
     print("held-out scenes:")
@@ -389,20 +395,18 @@ def cmd_train(args: argparse.Namespace) -> int:
     from evertgym.agents.train import train
 
     summary = train(args.config, out_dir=args.out, resume=args.resume, progress=args.progress)
-    print(json.dumps(summary, indent=2))
+    print(dumps(summary, indent=2))
     return 0
 
 
 def cmd_eval(args: argparse.Namespace) -> int:
     from evertgym.agents.evaluate import evaluate
+    from evertgym.cli_guard import check_eval_flags
 
-    if args.episodes < 1:
-        raise CLIError(f"--episodes = {args.episodes} is out of range: allowed >= 1")
-    if args.workers < 1:
-        raise CLIError(f"--workers = {args.workers} is out of range: allowed >= 1")
-    rows = evaluate(args.policies, args.env, args.episodes, workers=args.workers)
+    check_eval_flags(args)
+    rows = evaluate(args.policies, args.env, args.episodes, workers=args.workers, trust=args.trust_model)
     if args.json:
-        print(json.dumps({"rows": rows}))
+        print(dumps({"rows": rows}))
         return 0
     print(f"{'policy':30s} {'episodes':>8s} {'success':>8s} {'95% CI':>15s} {'time_to_goal_s':>14s} {'peak_kpa':>9s} {'max_force_n':>11s}")
     for r in rows:
@@ -415,9 +419,11 @@ def cmd_eval(args: argparse.Namespace) -> int:
 
 def cmd_rollout(args: argparse.Namespace) -> int:
     from evertgym.agents.rollout import rollout_gif
+    from evertgym.cli_guard import check_rollout_flags
 
-    info = rollout_gif(args.policy, args.env, args.out, seed=args.seed)
-    print(json.dumps(info))
+    check_rollout_flags(args)
+    info = rollout_gif(args.policy, args.env, args.out, seed=args.seed, trust=args.trust_model)
+    print(dumps(info))
     return 0
 
 
@@ -439,6 +445,7 @@ def build_parser() -> argparse.ArgumentParser:
     ru.add_argument("--db", default="runs/reproduce_ubend.sqlite", help="result store (resumable)")
     ru.add_argument("--backend", choices=["process", "serial", "dask"], default="process")
     ru.add_argument("--workers", type=int, default=None)
+    ru.add_argument("--force-workers", action="store_true", help="allow more --workers than CPUs")
     ru.add_argument("--plot", default=None, help="write the success-rate plot (PNG) here")
     ru.add_argument("--anatomy", action="store_true",
                     help="also where the failed trials jammed (free span, tip angle, M/Mc at the bands); "
@@ -484,7 +491,11 @@ def build_parser() -> argparse.ArgumentParser:
     sc.add_argument("--db", default="runs/score.sqlite")
     sc.add_argument("--backend", choices=["process", "serial", "dask"], default="process")
     sc.add_argument("--workers", type=int, default=None)
+    sc.add_argument("--force-workers", action="store_true", help="allow more --workers than CPUs")
     sc.add_argument("--address", default=None, help="Dask scheduler address (with --backend dask)")
+    sc.add_argument("--trust-cluster", action="store_true", help="no warning for a Dask --address that is not local")
+    sc.add_argument("--trust-model", action="store_true", help="load a model file that is not a shipped policy: model files are code "
+                         "(pickles) and run when loaded")
     sc.add_argument("--plot", default=None)
     sc.add_argument("--json", action="store_true")
     sc.set_defaults(func=cmd_score)
@@ -517,6 +528,9 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--episodes", type=int, default=20)
     ev.add_argument("--json", action="store_true")
     ev.add_argument("--workers", type=int, default=1, help="processes to spread the episodes over (default 1)")
+    ev.add_argument("--force-workers", action="store_true", help="allow more --workers than CPUs")
+    ev.add_argument("--trust-model", action="store_true", help="load a model file that is not a shipped policy: model files are code "
+                         "(pickles) and run when loaded")
     ev.set_defaults(func=cmd_eval)
 
     ro = sub.add_parser("rollout", help="render one episode to a GIF")
@@ -524,6 +538,8 @@ def build_parser() -> argparse.ArgumentParser:
     ro.add_argument("--env", required=True)
     ro.add_argument("--out", required=True, help="FILE.gif")
     ro.add_argument("--seed", type=int, default=0)
+    ro.add_argument("--trust-model", action="store_true", help="load a model file that is not a shipped policy: model files are code "
+                         "(pickles) and run when loaded")
     ro.set_defaults(func=cmd_rollout)
 
     bench = sub.add_parser("bench", help="benchmarks")
@@ -554,12 +570,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
-    try:
-        return args.func(args)
-    except (CLIError, ValueError) as e:
-        print(f"evertgym: error: {e}", file=sys.stderr)
-        return 2
+    parser = build_parser()
+    no_abbreviations(parser)
+    args = parser.parse_args(argv)
+    return run_command(args.func, args)
 
 
 if __name__ == "__main__":

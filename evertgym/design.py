@@ -44,6 +44,11 @@ from evertgym._validate import check_range
 MAX_REDUCTION = 0.6
 #: A tube is thin-walled (membrane theory) only while t / r stays below this.
 MAX_THICKNESS_TO_RADIUS = 0.1
+#: The shortest body the simulator builds and grows with its default settings: its 15 mm
+#: initial chain plus one 7.5 mm segment (shorter ones abort inside Chipmunk).
+MIN_LENGTH_M = 0.025
+#: The most bands a design may carry.
+MAX_BANDS = 1000
 
 
 class DesignError(ValueError):
@@ -51,9 +56,11 @@ class DesignError(ValueError):
 
 
 def _finite(name: str, value: Any) -> float:
+    if isinstance(value, (bool, str, bytes)) or value is None:  # no silent true -> 1.0 or "0.3" kept as text
+        raise DesignError(f"{name} = {value!r} is not a number")
     try:
         v = float(value)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise DesignError(f"{name} = {value!r} is not a number") from None
     if not math.isfinite(v):
         raise DesignError(f"{name} = {value!r} is not finite")
@@ -84,8 +91,9 @@ class Band:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "position_m", _finite("position_m", self.position_m))
-        _in_range("reduction", self.reduction, 0.0, MAX_REDUCTION if self.must_evert else 0.95, lo_open=False, hi_open=True)
-        _in_range("width_m", self.width_m, 0.0, 0.2, lo_open=True, hi_open=False, unit="m")
+        object.__setattr__(self, "reduction", _in_range(
+            "reduction", self.reduction, 0.0, MAX_REDUCTION if self.must_evert else 0.95, lo_open=False, hi_open=True))
+        object.__setattr__(self, "width_m", _in_range("width_m", self.width_m, 0.0, 0.2, lo_open=True, hi_open=False, unit="m"))
 
 
 @dataclass(frozen=True)
@@ -112,7 +120,7 @@ class TubeDesign:
 
     def __post_init__(self) -> None:
         d = _in_range("diameter_m", self.diameter_m, 0.0, 0.5, lo_open=True, hi_open=False, unit="m")
-        _in_range(
+        t = _in_range(
             "wall_thickness_m",
             self.wall_thickness_m,
             0.0,
@@ -121,15 +129,22 @@ class TubeDesign:
             hi_open=True,
             unit="m (thin-walled: below 0.1 x radius)",
         )
-        length = _in_range("length_m", self.length_m, 0.0, 20.0, lo_open=True, hi_open=False, unit="m")
+        length = _in_range("length_m", self.length_m, MIN_LENGTH_M, 20.0, lo_open=False, hi_open=False, unit="m")
+        for name, v in (("diameter_m", d), ("wall_thickness_m", t), ("length_m", length)):
+            object.__setattr__(self, name, v)
         if self.membrane_modulus_pa is not None:
-            _in_range("membrane_modulus_pa", self.membrane_modulus_pa, 0.0, 1e10, lo_open=True, hi_open=False, unit="Pa")
+            object.__setattr__(self, "membrane_modulus_pa", _in_range(
+                "membrane_modulus_pa", self.membrane_modulus_pa, 0.0, 1e10, lo_open=True, hi_open=False, unit="Pa"))
         if self.pressure_stiffening is not None:
-            _in_range("pressure_stiffening", self.pressure_stiffening, 0.0, 10.0, lo_open=False, hi_open=False)
-        bands = tuple(sorted(self.bands, key=lambda b: b.position_m))
-        for i, b in enumerate(bands):
+            object.__setattr__(self, "pressure_stiffening", _in_range(
+                "pressure_stiffening", self.pressure_stiffening, 0.0, 10.0, lo_open=False, hi_open=False))
+        if not isinstance(self.bands, (tuple, list)) or len(self.bands) > MAX_BANDS:
+            raise DesignError(f"bands = {self.bands!r:.60} is not allowed: allowed a list of at most {MAX_BANDS} Band")
+        for i, b in enumerate(self.bands):
             if not isinstance(b, Band):
                 raise DesignError(f"bands[{i}] = {b!r} is not a Band")
+        bands = tuple(sorted(self.bands, key=lambda b: b.position_m))
+        for i, b in enumerate(bands):
             half = b.width_m / 2
             if not (half <= b.position_m <= length - half):
                 raise DesignError(
@@ -240,12 +255,20 @@ class TubeDesign:
     def load(cls, path: str | Path) -> TubeDesign:
         """Read a TOML or JSON design file."""
         path = Path(path)
-        text = path.read_text(encoding="utf-8")
+        try:
+            text = path.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as e:
+            raise DesignError(f"design file = {str(path)!r}: cannot read it as UTF-8 text ({e})") from None
         try:
             data = tomllib.loads(text) if path.suffix == ".toml" else json.loads(text)
         except (tomllib.TOMLDecodeError, json.JSONDecodeError) as e:
             raise DesignError(f"{path}: malformed design file: {e}") from None
-        return cls.from_dict(data)
+        if data == {}:  # not silently the default design
+            raise DesignError(f"design file = {str(path)!r} is empty: allowed sections tube, bands, pressure_law")
+        try:
+            return cls.from_dict(data)
+        except DesignError as e:
+            raise DesignError(f"{path}: {e}") from None
 
 
 def _no_unknown(section: str, table: dict, allowed: set[str]) -> None:

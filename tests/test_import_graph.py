@@ -6,8 +6,8 @@ Layer order (docs/architecture in the README, ``shared/DESIGN.md``)::
 
 Every ``import``/``from ... import`` inside ``evertgym/`` is read with :mod:`ast`, at module
 level *and* inside functions (a function-level import is still a dependency), and
-``if TYPE_CHECKING:`` blocks too.  ``_validate`` and ``_version`` import nothing from the
-package and sit below every layer.  Experiments and agents are siblings in the design; an
+``if TYPE_CHECKING:`` blocks too.  ``_validate``, ``_version`` and ``limits`` import nothing
+from the package and sit below every layer; ``cli_guard`` belongs to the CLI.  Experiments and agents are siblings in the design; an
 experiment plays a policy, so ``experiments`` may import ``agents``, never the reverse.  The
 package root registers the environments by entry-point string and may import only
 ``evertgym.env`` (whose package module is light) and ``evertgym._version``.
@@ -26,6 +26,7 @@ PKG = Path(__file__).resolve().parents[1] / "evertgym"
 LAYERS: dict[str, float] = {
     "_validate": 0,
     "_version": 0,
+    "limits": 0,
     "design": 1,
     "model": 2,
     "scenes": 3,
@@ -36,6 +37,7 @@ LAYERS: dict[str, float] = {
     "experiments": 7.5,
     "bench": 8,
     "cli": 9,
+    "cli_guard": 8.5,
 }
 ROOT_MAY_IMPORT = {"evertgym.env", "evertgym._version"}
 

@@ -18,6 +18,7 @@ import numpy as np
 from evertgym.agents.baselines import Policy
 from evertgym.agents.policies import make_policy, policy_desc
 from evertgym.env.eversion_env import HELD_OUT_SEED_BASE
+from evertgym.limits import MAX_EPISODES
 from evertgym.scoring.backends import process_backend, serial_backend
 from evertgym.scoring.spec import TrialSpec, canonical_json
 from evertgym.scoring.stats import wilson_interval
@@ -40,7 +41,7 @@ def _policy_and_env(policy_json: str, env_id: str, kwargs_json: str) -> tuple[Po
     """One policy and env per (policy, env) in each worker: a model loads once, not per episode."""
     import json
 
-    policy = make_policy(json.loads(policy_json))
+    policy = make_policy(json.loads(policy_json))  # trust travels in the description
     # observation flags a trained model needs; they do not change the physics
     env = gym.make(env_id, **{**json.loads(kwargs_json), **getattr(policy, "env_kwargs", {})})
     if getattr(policy, "name", "") == "agent":
@@ -62,18 +63,20 @@ def _label(desc: str | dict) -> str:
 
 
 def evaluate(policies: list[str | dict], env_id: str, episodes: int, env_kwargs: dict | None = None,
-             seed_base: int = HELD_OUT_SEED_BASE, workers: int = 1) -> list[dict]:
+             seed_base: int = HELD_OUT_SEED_BASE, workers: int = 1, trust: bool = False) -> list[dict]:
     """One row per policy: success rate (Wilson 95%), mean time to goal, peak pressure and
     max contact force over ``episodes`` episodes whose seeds (and scene seeds) are
     ``seed_base + i``, the same for every policy.  ``workers > 1`` spreads the episodes
-    over that many processes; every episode is seeded, so the rows do not change."""
-    if not (isinstance(episodes, int) and episodes >= 1):
-        raise ValueError(f"episodes = {episodes!r} is out of range: allowed integers >= 1")
+    over that many processes; every episode is seeded, so the rows do not change.
+    ``trust=True`` loads saved models that are not shipped policies (model files are code)."""
+    if not (isinstance(episodes, int) and 1 <= episodes <= MAX_EPISODES):
+        raise ValueError(f"episodes = {episodes!r} is out of range: allowed integers in [1, {MAX_EPISODES}]")
     if not (isinstance(workers, int) and workers >= 1):
         raise ValueError(f"workers = {workers!r} is out of range: allowed integers >= 1")
     specs = [
         TrialSpec(design={}, design_name=env_id, scene={"family": env_id, "params": dict(env_kwargs or {}), "seed": seed_base + i},
-                  policy=policy_desc(desc), seed=seed_base + i, index=i, group=_label(desc))
+                  policy={**policy_desc(desc), **({"trust": True} if trust else {})}, seed=seed_base + i, index=i,
+                  group=_label(desc))
         for desc in policies for i in range(episodes)
     ]
     backend = process_backend if workers > 1 else serial_backend

@@ -19,16 +19,24 @@ class SB3Policy(Policy):
     (PPO only) with a generator seeded by each episode's seed, so a stochastic evaluation
     is repeatable too.  ``deterministic=None`` takes the mode the model was shipped with
     (``"deterministic"`` in ``<stem>_env.json``; default True).
+
+    The zip and the ``.pkl`` are code (pickles): they load only if their SHA-256 is in the
+    manifest of shipped policies or ``trust=True`` (:mod:`evertgym.agents.trust`).
     """
 
     name = "agent"
 
-    def __init__(self, path: str | Path, deterministic: bool | None = None):
+    def __init__(self, path: str | Path, deterministic: bool | None = None, trust: bool = False):
         from stable_baselines3 import PPO, SAC
 
+        from evertgym.agents.trust import check_trusted
+
         path = Path(path)
-        if not path.exists():
-            raise ValueError(f"policy path = {str(path)!r} does not exist")
+        if not path.is_file():
+            raise ValueError(f"policy path = {str(path)!r} is not a file")
+        stats = path.with_name(path.stem + "_vecnormalize.pkl")
+        for f in (path, stats) if stats.exists() else (path,):
+            check_trusted(f, trust)
         last_error = None
         for cls in (PPO, SAC):
             try:
@@ -46,13 +54,12 @@ class SB3Policy(Policy):
         if not self.deterministic and not isinstance(self.model, PPO):
             raise ValueError(f"policy path = {str(path)!r}: stochastic actions are supported for PPO models only")
         self.rng = np.random.default_rng(0)
-        stats = path.with_name(path.stem + "_vecnormalize.pkl")
         self.obs_rms = None
         if stats.exists():
             import pickle
 
-            with open(stats, "rb") as f:
-                vn = pickle.load(f)
+            with open(stats, "rb") as fh:
+                vn = pickle.load(fh)
             self.obs_rms, self.clip_obs, self.epsilon = vn.obs_rms, vn.clip_obs, vn.epsilon
 
     def reset(self, env) -> None:
@@ -83,7 +90,10 @@ def make_baseline(name: str, **kwargs) -> Policy:
         return load_tuned(**kwargs)
     if name not in BASELINES:
         raise ValueError(f"unknown baseline {name!r}: allowed {sorted(BASELINES) + ['tuned']}")
-    return BASELINES[name](**kwargs)
+    try:
+        return BASELINES[name](**kwargs)
+    except TypeError as e:  # an unknown parameter: name it, as for any bad field
+        raise ValueError(f"policy {name!r}: {e}") from None
 
 
 def policy_desc(desc: dict | str) -> dict:
@@ -102,14 +112,16 @@ def policy_desc(desc: dict | str) -> dict:
     return dict(desc)
 
 
-def make_policy(desc: dict | str) -> Policy:
+def make_policy(desc: dict | str, trust: bool = False) -> Policy:
     """``{"name": "constant", "pressure_kpa": 3}``, ``"operator"``, ``{"name": "agent", "path": ...,
     "deterministic": ...}`` or the path of a saved model, optionally with its action mode
-    (``"model.zip:stochastic"``, ``"model.zip:deterministic"``)."""
+    (``"model.zip:stochastic"``, ``"model.zip:deterministic"``).  A saved model loads only if
+    it is a shipped policy or ``trust`` is set (or the dict holds ``"trust": True``)."""
     desc = policy_desc(desc)
     name = desc.pop("name", None)
+    trust = bool(desc.pop("trust", False)) or trust
     if name == "agent":
-        return SB3Policy(desc["path"], desc.get("deterministic"))
+        return SB3Policy(desc["path"], desc.get("deterministic"), trust=trust)
     if name is None:
         raise ValueError("policy must have a name: constant, operator, tuned or agent")
     return make_baseline(name, **desc)

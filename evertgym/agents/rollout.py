@@ -10,15 +10,16 @@ import numpy as np
 from evertgym.agents.policies import make_policy
 
 
-def rollout_gif(policy_desc: str, env_id: str, out: str | Path, seed: int = 0, every: int = 2) -> dict:
+def rollout_gif(policy_desc: str, env_id: str, out: str | Path, seed: int = 0, every: int = 2, trust: bool = False) -> dict:
     """Run one episode with ``render_mode="rgb_array"``; every ``every``-th frame goes to ``out``.
-    Returns the outcome and the pressure command of every control step (``command_kpa``)."""
+    Returns the outcome and the pressure command of every control step (``command_kpa``).
+    ``trust=True`` loads a saved model that is not a shipped policy (model files are code)."""
     from PIL import Image
 
     out = Path(out)
     if out.suffix.lower() != ".gif":
         raise ValueError(f"--out = {str(out)!r}: expected a .gif file")
-    policy = make_policy(policy_desc)
+    policy = make_policy(policy_desc, trust=trust)
     env = gym.make(env_id, render_mode="rgb_array", **getattr(policy, "env_kwargs", {}))
     obs, info = env.reset(seed=seed)
     policy.reset(env)

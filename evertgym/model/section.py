@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -114,14 +115,35 @@ class TubeSection:
             pts += [z.start_m, z.centre_m - z.half_strip_m, z.centre_m + z.half_strip_m, z.end_m]
         return sorted(pts)
 
+    def _zone_table(self) -> tuple[Any, ...]:
+        """Zones sorted by start as arrays, and the most zones any point can lie in (``depth``)."""
+        if not hasattr(self, "_table"):
+            zs = sorted(self.zones, key=lambda z: z.start_m)
+            start = np.array([z.start_m for z in zs])
+            end = np.array([z.end_m for z in zs])
+            # zones k-depth+1..k are the only ones that can cover a point in zone k's footprint
+            depth = int(np.max(np.arange(len(zs)) - np.searchsorted(np.maximum.accumulate(end), start, "right") + 1)) if zs else 0
+            cols = [np.array([getattr(z, f) for z in zs]) for f in ("centre_m", "half_strip_m", "taper_m", "reduction", "alpha")]
+            self._table = (start, *cols, depth)
+        return self._table
+
     def _reduction_and_alpha(self, s: float | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         s = np.asarray(s, dtype=float)
         rho = np.zeros_like(s)
         alpha = np.ones_like(s)
-        for z in self.zones:
-            w = z.shape(s)
-            rho = np.maximum(rho, z.reduction * w)
-            alpha = np.minimum(alpha, 1.0 - (1.0 - z.alpha) * w)
+        if not self.zones:
+            return rho, alpha
+        start, centre, half, taper, red, alf, depth = self._zone_table()
+        last = np.searchsorted(start, s, side="right") - 1  # the last zone starting at or before s
+        for k in range(depth):  # vectorised over s: cost O(len(s) x depth), not O(len(s) x bands)
+            i = last - k
+            ok = i >= 0
+            j = np.where(ok, i, 0)
+            d = np.abs(s - centre[j]) - half[j]
+            safe = np.where(taper[j] > 0, taper[j], 1.0)
+            w = np.where(taper[j] > 0, np.clip(1.0 - d / safe, 0.0, 1.0), (d <= 0).astype(float)) * ok
+            rho = np.maximum(rho, red[j] * w)
+            alpha = np.minimum(alpha, 1.0 - (1.0 - alf[j]) * w)
         return rho, alpha
 
     def radius(self, s: float | np.ndarray) -> np.ndarray:

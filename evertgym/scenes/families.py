@@ -42,6 +42,8 @@ DEG = math.pi / 180.0
 RIGID_WALL_RADIUS = 1e-3
 #: Largest centreline sample spacing (m) of the rigid families.
 DS_MAX = 2e-3
+#: The shortest channel (m) a scene may have (the shortest straight pipe).
+MIN_CHANNEL_M = 0.01
 #: The paper's U-bend radii (mm), Fig. 4d.
 PAPER_UBEND_RADII_MM = (40.0, 37.5, 35.0, 32.5, 30.0, 27.5, 25.0, 22.5, 20.0)
 
@@ -288,6 +290,9 @@ def make_scene(spec: SceneSpec | Mapping[str, Any]) -> Scene:
     rng = np.random.default_rng(spec.seed)
     params = fam.resolve(dict(spec.params), rng)
     scene = Scene(spec, params, fam.geometry(params, rng))
+    if scene.length < MIN_CHANNEL_M:  # e.g. a vanishing bend with no straights
+        raise SceneError(f"{spec.family}: these parameters give a channel {scene.length:g} m long: allowed >= "
+                         f"{MIN_CHANNEL_M:g} m; lengthen lead_in_mm or lead_out_mm: {spec.to_dict()}")
     if scene.self_intersecting():
         raise SceneError(f"{spec.family}: these parameters give a self-intersecting channel: {spec.to_dict()}")
     robot = params.get("robot_diameter_mm")

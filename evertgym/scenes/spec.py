@@ -73,7 +73,10 @@ class Param:
     def _scalar(self, name: str, value: Any, integer: bool, shown: Any) -> float | int:
         if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
             raise SceneError(f"{name} = {fmt_value(shown)} is not a number: allowed {self.allowed()}")
-        v = float(value)
+        try:
+            v = float(value)
+        except OverflowError:  # an integer beyond float range
+            v = math.inf
         if not math.isfinite(v):
             raise SceneError(f"{name} = {fmt_value(shown)} is not a finite number: allowed {self.allowed()}")
         if integer and v != round(v):
@@ -137,7 +140,7 @@ class SceneSpec:
     seed: int | None = None
 
     def __post_init__(self) -> None:
-        if self.family not in FAMILIES:
+        if not isinstance(self.family, str) or self.family not in FAMILIES:
             raise SceneError(
                 f"unknown scene family {self.family!r}: allowed families are {', '.join(sorted(FAMILIES))}"
             )
@@ -179,7 +182,10 @@ class SceneSpec:
             raise SceneError(
                 f"unknown scene spec keys {sorted(unknown)}: allowed keys are family, params, seed"
             )
-        return cls(family=d["family"], params=dict(d.get("params") or {}), seed=d.get("seed"))
+        params = d.get("params") or {}
+        if not isinstance(params, Mapping):
+            raise SceneError(f"params = {params!r} is not a mapping of parameter names to values")
+        return cls(family=d["family"], params=dict(params), seed=d.get("seed"))
 
     def with_params(self, **params: Any) -> SceneSpec:
         """A copy with some parameters replaced or added."""

@@ -201,7 +201,10 @@ def dask_backend(
 
     with ExitStack() as stack:
         if address is not None:
-            client = stack.enter_context(Client(address))
+            try:  # an unreachable scheduler fails in 10 s, not 30; anything else there is not a scheduler
+                client = stack.enter_context(Client(address, timeout="10s"))
+            except Exception as e:  # noqa: BLE001 - distributed raises OSError, TimeoutError, even MemoryError
+                raise ConnectionError(f"address = {address!r}: no Dask scheduler answered there ({type(e).__name__})") from None
         else:
             cluster = stack.enter_context(
                 LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None)
