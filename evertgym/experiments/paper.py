@@ -31,7 +31,15 @@ def ubend_design(reduction: float) -> dict:
     return {"tube": {"diameter_mm": 40.0, "wall_thickness_mm": 0.05, "length_mm": 900.0}, "bands": bands}
 
 
-def ubend_specs(trials: int = 12, radii=UBEND_RADII_MM, reductions=UBEND_REDUCTIONS, pressure_kpa: float = 3.0) -> list[TrialSpec]:
+def _episode(episode: dict, sim: dict | None) -> dict:
+    """The trial's ``episode`` table, with ``"sim"`` (SimConfig overrides) only when given: specs
+    without overrides keep their keys, so existing stores stay valid."""
+    return {**episode, "sim": dict(sim)} if sim else episode
+
+
+def ubend_specs(trials: int = 12, radii=UBEND_RADII_MM, reductions=UBEND_REDUCTIONS, pressure_kpa: float = 3.0,
+                sim: dict | None = None) -> list[TrialSpec]:
+    """The U-bend trials; ``sim`` overrides :class:`~evertgym.sim.config.SimConfig` fields in every one."""
     specs = []
     for red in reductions:
         for r in radii:
@@ -44,7 +52,7 @@ def ubend_specs(trials: int = 12, radii=UBEND_RADII_MM, reductions=UBEND_REDUCTI
                             "family": "ubend",
                             "params": {"radius_mm": float(r)},
                             "seed": 0,
-                            "episode": {"max_s": 20.0, "band_offset_mm": [-25.0, 25.0], "entry_offset_mm": [-5.0, 5.0]},
+                            "episode": _episode({"max_s": 20.0, "band_offset_mm": [-25.0, 25.0], "entry_offset_mm": [-5.0, 5.0]}, sim),
                         },
                         policy={"name": "constant", "pressure_kpa": float(pressure_kpa)},
                         seed=i,
@@ -55,7 +63,8 @@ def ubend_specs(trials: int = 12, radii=UBEND_RADII_MM, reductions=UBEND_REDUCTI
     return specs
 
 
-def colon_specs() -> list[TrialSpec]:
+def colon_specs(sim: dict | None = None) -> list[TrialSpec]:
+    """The colon case study's two trials; ``sim`` overrides :class:`~evertgym.sim.config.SimConfig` fields."""
     specs = []
     for red in (0.0, 0.1):
         bands = [{"position_mm": p, "reduction": red} for p in COLON_BANDS_MM] if red > 0 else []
@@ -63,7 +72,7 @@ def colon_specs() -> list[TrialSpec]:
             TrialSpec(
                 design={"tube": {"diameter_mm": 20.0, "wall_thickness_mm": 0.05, "length_mm": 800.0}, "bands": bands},
                 design_name="no bands" if red == 0 else "3 x 10%",
-                scene={"family": "colon", "params": {}, "seed": 0, "episode": {"max_s": 40.0}},
+                scene={"family": "colon", "params": {}, "seed": 0, "episode": _episode({"max_s": 40.0}, sim)},
                 policy={"name": "operator", "start_kpa": 2.0, "step_kpa": 0.5, "stall_s": 1.0, "max_kpa": 8.0},
                 seed=0,
                 index=0,
@@ -102,11 +111,13 @@ def ubend_jam_rows(records) -> list[dict]:
     return rows
 
 
-def reproduce_ubend(store_path: str | Path, trials: int = 12, backend: str = "process", workers: int | None = None, progress: bool = True) -> dict:
+def reproduce_ubend(store_path: str | Path, trials: int = 12, backend: str = "process", workers: int | None = None, progress: bool = True,
+                    sim: dict | None = None, radii=UBEND_RADII_MM) -> dict:
     """Run (or resume) the U-bend table; ``rows`` is the ``--json`` structure of
-    ``evertgym reproduce ubend``, ``jams`` the anatomy of its failed trials per row."""
+    ``evertgym reproduce ubend``, ``jams`` the anatomy of its failed trials per row.
+    ``sim`` overrides :class:`~evertgym.sim.config.SimConfig` fields; ``radii`` picks bend radii."""
     t0 = time.perf_counter()
-    records = _run(ubend_specs(trials), store_path, backend, workers, progress)
+    records = _run(ubend_specs(trials, radii=radii, sim=sim), store_path, backend, workers, progress)
     jams = ubend_jam_rows(records)
     rows = [{k: j[k] for k in ("reduction", "radius_mm", "trials", "successes")} for j in jams]
     return {"rows": rows, "jams": jams, "wall_s": time.perf_counter() - t0}
@@ -124,9 +135,10 @@ def ubend_jam_table(jam_rows: list[dict]) -> str:
     return jam_table(named, UBEND_JAM_LEAD)
 
 
-def reproduce_colon(store_path: str | Path, backend: str = "serial", progress: bool = False) -> dict:
-    """Run (or resume) the colon case study; the ``--json`` structure of ``evertgym reproduce colon``."""
-    records = _run(colon_specs(), store_path, backend, None, progress)
+def reproduce_colon(store_path: str | Path, backend: str = "serial", progress: bool = False, sim: dict | None = None) -> dict:
+    """Run (or resume) the colon case study; the ``--json`` structure of ``evertgym reproduce colon``.
+    ``sim`` overrides :class:`~evertgym.sim.config.SimConfig` fields."""
+    records = _run(colon_specs(sim), store_path, backend, None, progress)
     rows = []
     for rec in records:
         bands = rec.spec.design["bands"]

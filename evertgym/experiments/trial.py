@@ -4,7 +4,8 @@
 ``episode`` table: ``max_s`` (time limit, default 20 s), ``control_hz`` (10),
 ``band_offset_mm`` and ``entry_offset_mm`` (``[lo, hi]`` ranges drawn per trial from the
 trial's seed: the paper's randomisation of band position against the bend and of the
-robot's start).  ``TrialSpec.policy`` names a policy: ``{"name": "constant",
+robot's start) and ``sim`` (fields of :class:`~evertgym.sim.config.SimConfig` that override
+its defaults, e.g. ``{"mass_ratio": 0.1}``; absent: the defaults).  ``TrialSpec.policy`` names a policy: ``{"name": "constant",
 "pressure_kpa": 3}``, ``{"name": "operator", ...}``, ``{"name": "tuned"}`` or
 ``{"name": "agent", "path": "agents/colon_ppo.zip"}``.
 
@@ -35,6 +36,7 @@ def make_trial_env(spec: TrialSpec) -> EversionEnv:
         entry_offset_mm=tuple(episode.get("entry_offset_mm", (0.0, 0.0))),
         control_hz=float(episode.get("control_hz", 10.0)),
         max_episode_s=float(episode.get("max_s", 20.0)),
+        sim_config=episode.get("sim"),
     )
 
 
