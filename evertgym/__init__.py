@@ -1,18 +1,17 @@
 """evertgym: simulation, band design and pressure control of soft growing robots.
 
-Layers (each knows only those below it): ``evertgym.model`` (Cosserat rod, pressure
-law, calibration), ``evertgym.sim`` (pymunk simulator), ``evertgym.scenes``,
-``evertgym.env`` (Gymnasium), ``evertgym.scoring`` and ``evertgym.agents``.
-Importing the package registers the Gymnasium environments.
+Layers (each knows only those below it): ``evertgym.design`` < ``evertgym.model`` (Cosserat
+rod, pressure and section laws) < ``evertgym.scenes`` < ``evertgym.sim`` (pymunk simulator)
+< ``evertgym.env`` (Gymnasium) < ``evertgym.scoring`` (trial-agnostic runner) <
+``evertgym.experiments`` / ``evertgym.agents`` < ``evertgym.bench`` < ``evertgym.cli``.
+
+Importing the package registers the Gymnasium environments by entry-point string: it
+imports Gymnasium and the presets' TOML files, not pymunk or scipy, until an env is made.
 """
 
-__version__ = "0.2.0"
+from evertgym._version import __version__
+from evertgym.env import register_envs
 
+register_envs()
 
-def _register() -> None:
-    from evertgym.env import register_envs
-
-    register_envs()
-
-
-_register()
+__all__ = ["__version__", "register_envs"]

@@ -15,10 +15,12 @@ import json
 import math
 import sys
 import time
-
 from pathlib import Path
 
 import numpy as np
+
+from evertgym._validate import check_range
+from evertgym.cli_guard import check_input_file, dumps, no_abbreviations, run_command
 
 
 class CLIError(ValueError):
@@ -66,9 +68,7 @@ def _float_list(flag: str, text: str) -> list[float]:
 
 
 def _check(flag: str, value: float, lo: float, hi: float, unit: str) -> float:
-    if not (math.isfinite(value) and lo <= value <= hi):
-        raise CLIError(f"{flag} = {value!r} is out of range: allowed [{lo:g}, {hi:g}] {unit}")
-    return value
+    return check_range(flag, value, lo, hi, unit=unit, error=CLIError)
 
 
 # ---- reproduce stiffness ---------------------------------------------------------------
@@ -99,20 +99,20 @@ def _stiffness_curves(result: dict, n_points: int = 11) -> list[dict]:
 
 
 def cmd_reproduce_stiffness(args: argparse.Namespace) -> int:
-    from evertgym.model.stiffness import reproduce_stiffness
+    from evertgym.experiments.stiffness import reproduce_stiffness
 
     t0 = time.perf_counter()
     result = reproduce_stiffness()
     if not args.no_sim:
-        from evertgym.sim.tensile import add_sim_columns
+        from evertgym.experiments.stiffness import add_sim_columns
 
         add_sim_columns(result)
     if args.plot:
-        from evertgym.plots import plot_stiffness_curves
+        from evertgym.experiments.plots import plot_stiffness_curves
 
         plot_stiffness_curves(_stiffness_curves(result), args.plot)
     if args.json:
-        print(json.dumps(result))
+        print(dumps(result))
         return 0
     print("Virtual tensile test: 6.9 kPa, 20 mm lateral tip displacement, k = F / 0.02 m")
     print(f"parameter file version: {result['params_version']}")
@@ -139,13 +139,13 @@ def cmd_reproduce_stiffness(args: argparse.Namespace) -> int:
 
 
 def cmd_reproduce_eversion(args: argparse.Namespace) -> int:
-    from evertgym.sim.eversion_test import reproduce_eversion
+    from evertgym.experiments.eversion import reproduce_eversion
 
     step = _check("--step-kpa", args.step_kpa, 0.001, 1.0, "kPa")
     t0 = time.perf_counter()
     result = reproduce_eversion(step_pa=step * 1e3)
     if args.json:
-        print(json.dumps(result))
+        print(dumps(result))
         return 0
     print("Minimum eversion pressure (vertical, against gravity, full eversion within 20 s, <= 8 kPa)")
     print(f"{'reduction':>9} {'measured_kpa':>12} {'sd_kpa':>7} {'simulated_kpa':>13} {'within 1 SD':>11}")
@@ -168,10 +168,10 @@ def cmd_stiffness(args: argparse.Namespace) -> int:
     from evertgym.model.stiffness import tensile_rod
 
     params = load_params()
-    pressure_pa = _check("--pressure-kpa", args.pressure_kpa, 0.0, 8.0, "kPa") * 1e3
+    pressure_pa = _check("--pressure-kpa", args.pressure_kpa, 0.01, 8.0, "kPa (at 0 the wrinkling law switches off)") * 1e3
     disp = _check("--displacement-mm", args.displacement_mm, -60.0, 60.0, "mm") / 1e3
     if args.design:
-        design = TubeDesign.load(args.design)
+        design = TubeDesign.load(check_input_file("--design", args.design))
         if args.bands_from_tip_mm:
             raise CLIError("--bands-from-tip-mm cannot be combined with --design (the file holds the bands)")
     else:
@@ -205,7 +205,7 @@ def cmd_stiffness(args: argparse.Namespace) -> int:
         res = sim_tensile_test(design, disp, pressure_pa, free_mm / 1e3, params=params)
         out.update(sim_force_n=res.force_n, sim_n_per_m=res.n_per_m, sim_converged=res.converged)
     if args.json:
-        print(json.dumps(out))
+        print(dumps(out))
         return 0
     print(f"free length (clamp to tip): {free_mm:.1f} mm, {free_source}; robot length {design.length_m * 1e3:.0f} mm"
           + (" (from the design file)" if args.design else ""))
@@ -225,7 +225,7 @@ def cmd_bench_accuracy(args: argparse.Namespace) -> int:
     with tqdm(total=len(settings), desc="bench accuracy", unit="setting", disable=args.json) as bar:
         result = run_sweep(settings, quick=args.quick, on_row=lambda _row: bar.update(1))
     if args.json:
-        print(json.dumps({"rows": result["rows"], "default": result["default"]}, default=float))
+        print(dumps({"rows": result["rows"], "default": result["default"]}, default=float))
         return 0
     print(f"{'setting':44s} {'force_err':>9s} {'pose_mm':>8s} {'ubend':>6s} {'wall/sim':>9s}")
     for r in result["rows"]:
@@ -240,7 +240,7 @@ def cmd_bench_peers(args: argparse.Namespace) -> int:
     from evertgym.bench.peers import compare, format_table
 
     result = compare()
-    print(json.dumps(result) if args.json else "\n".join(format_table(result)))
+    print(dumps(result) if args.json else "\n".join(format_table(result)))
     return 0
 
 
@@ -252,14 +252,13 @@ def cmd_bench_pool(args: argparse.Namespace) -> int:
     if not 0.01 <= args.trial_s <= 60:
         raise CLIError(f"--trial-s = {args.trial_s} is out of range: allowed [0.01, 60] s")
     result = bench_pool(args.trials, args.trial_s, real=args.real, dask=not args.no_dask)
-    print(json.dumps(result) if args.json else "\n".join(format_pool(result)))
+    print(dumps(result) if args.json else "\n".join(format_pool(result)))
     return 0
 
 
 def cmd_bench_env(args: argparse.Namespace) -> int:
     import os
 
-    import evertgym  # noqa: F401  (registers the envs)
     from evertgym.env import register_envs
     from evertgym.env.bench import bench_env
 
@@ -272,7 +271,7 @@ def cmd_bench_env(args: argparse.Namespace) -> int:
 
     rows = [bench_env(env_id, args.steps) for env_id in tqdm(ids, desc="bench env", unit="env", disable=args.json)]
     if args.json:
-        print(json.dumps({"rows": rows}))
+        print(dumps({"rows": rows}))
         return 0
     print(f"{'env_id':28s} {'steps_per_s':>11s} {'sim_seconds_per_step':>20s} {'steps':>6s}")
     for r in rows:
@@ -281,10 +280,13 @@ def cmd_bench_env(args: argparse.Namespace) -> int:
 
 
 def cmd_reproduce_ubend(args: argparse.Namespace) -> int:
-    from evertgym.scoring.paper import plot_ubend, reproduce_ubend
+    from evertgym.experiments.paper import plot_ubend, reproduce_ubend
 
     if not (1 <= args.trials <= 1000):
         raise CLIError(f"--trials = {args.trials} is out of range: allowed [1, 1000]")
+    from evertgym.limits import check_workers
+
+    check_workers(args.workers, args.force_workers, "--workers")
     result = reproduce_ubend(args.db, trials=args.trials, backend=args.backend, workers=args.workers, progress=not args.json)
     if args.plot:
         plot_ubend(result, args.plot)
@@ -292,7 +294,7 @@ def cmd_reproduce_ubend(args: argparse.Namespace) -> int:
         out = {"rows": result["rows"]}
         if args.anatomy:
             out["jam_anatomy"] = result["jams"]
-        print(json.dumps(out))
+        print(dumps(out))
         return 0
     radii = sorted({r["radius_mm"] for r in result["rows"]}, reverse=True)
     reds = sorted({r["reduction"] for r in result["rows"]})
@@ -305,7 +307,7 @@ def cmd_reproduce_ubend(args: argparse.Namespace) -> int:
         print(f"{name:>10} " + " ".join(f"{c['successes']:>3}/{c['trials']:<2}" for c in cells) + f" {sum(c['successes'] for c in cells):>6}")
     print(f"time: {result['wall_s']:.1f} s (store: {args.db})")
     if args.anatomy:
-        from evertgym.scoring.paper import ubend_jam_table
+        from evertgym.experiments.paper import ubend_jam_table
 
         print("\nWhere the failed trials jammed (medians; docs/scoring.md explains the columns):\n")
         print(ubend_jam_table(result["jams"]), end="")
@@ -313,16 +315,16 @@ def cmd_reproduce_ubend(args: argparse.Namespace) -> int:
 
 
 def cmd_reproduce_colon(args: argparse.Namespace) -> int:
-    from evertgym.scoring.paper import reproduce_colon
+    from evertgym.experiments.paper import reproduce_colon
 
     result = reproduce_colon(args.db, progress=not args.json)
     if args.plot:
-        from evertgym.plots import plot_pressure_position
+        from evertgym.experiments.plots import plot_pressure_position
 
         plot_pressure_position(result["rows"], args.plot)
     if args.json:
         keys = ("reduction", "passed", "stall_position_mm", "peak_pressure_kpa") + (("jam",) if args.anatomy else ())
-        print(json.dumps({"rows": [{k: r[k] for k in keys} for r in result["rows"]]}))
+        print(dumps({"rows": [{k: r[k] for k in keys} for r in result["rows"]]}))
         return 0
     print("Colon phantom, operator protocol (2 kPa, +0.5 kPa per 1 s stall, up to 8 kPa)")
     for r in result["rows"]:
@@ -342,10 +344,10 @@ def _policy_arg(text: str) -> dict:
     text = text.strip()
     if text.startswith("{"):
         try:
-            d = json.loads(text)
+            parsed = json.loads(text)
         except json.JSONDecodeError as e:
             raise CLIError(f"--policy = {text!r}: malformed JSON: {e}") from None
-        return d
+        return parsed
     if text.endswith(".zip"):
         return {"name": "agent", "path": text}
     name, _, rest = text.partition(":")
@@ -360,16 +362,17 @@ def _policy_arg(text: str) -> dict:
 
 
 def cmd_score(args: argparse.Namespace) -> int:
+    from evertgym.cli_guard import check_score_flags
     from evertgym.design import TubeDesign
+    from evertgym.experiments.sweep import design_from_flags, plot_summary, sweep_specs
+    from evertgym.experiments.trial import run_trial
     from evertgym.scoring.runner import run_trials
     from evertgym.scoring.stats import summarize
     from evertgym.scoring.store import ResultStore
-    from evertgym.scoring.sweep import design_from_flags, plot_summary, sweep_specs
-    from evertgym.scoring.trial import run_trial
 
     designs: dict[str, dict] = {}
     for path in args.design or []:
-        designs[Path(path).stem] = TubeDesign.load(path).to_dict()
+        designs[Path(path).stem] = TubeDesign.load(check_input_file("--design", path)).to_dict()
     if args.bands_mm is not None or not designs:
         bands = _float_list("--bands-mm", args.bands_mm or "")
         red = _check("--reduction", args.reduction, 0.0, 0.5999, "(fraction, below 0.6)")
@@ -379,10 +382,9 @@ def cmd_score(args: argparse.Namespace) -> int:
         params = json.loads(args.scene_params)
     except json.JSONDecodeError as e:
         raise CLIError(f"--scene-params = {args.scene_params!r}: malformed JSON: {e}") from None
-    if not (1 <= args.scenes <= 100000 and 1 <= args.trials <= 10000):
-        raise CLIError("--scenes and --trials must be positive (at most 100000 and 10000)")
     episode = {"max_s": args.max_s, "band_offset_mm": [-args.band_jitter_mm, args.band_jitter_mm], "entry_offset_mm": [-5.0, 5.0]}
-    specs = sweep_specs(designs, {"family": args.scene, "params": params}, args.scenes, args.trials, _policy_arg(args.policy), episode)
+    policy = check_score_flags(args, designs, params, episode, _policy_arg(args.policy))
+    specs = sweep_specs(designs, {"family": args.scene, "params": params}, args.scenes, args.trials, policy, episode)
     Path(args.db).parent.mkdir(parents=True, exist_ok=True)
     with ResultStore(args.db) as store:
         kw = {"address": args.address} if args.address else {"workers": args.workers}
@@ -396,7 +398,7 @@ def cmd_score(args: argparse.Namespace) -> int:
         plot_summary(rows, args.plot, title=f"{scene_text}; policy {policy_text}; "
                                             f"{args.scenes} scenes x {args.trials} trials per design")
     if args.json:
-        print(json.dumps({"rows": rows}, default=float))
+        print(dumps({"rows": rows}, default=float))
         return 0
     print(f"policy: {policy_text}")
     print(f"scene:  {scene_text}, seeds 0-{args.scenes - 1}; {args.trials} trials per scene "
@@ -404,28 +406,30 @@ def cmd_score(args: argparse.Namespace) -> int:
     print(f"designs: {len(designs)}, {len(specs)} trials in all")
     print(f"{'design':>14} {'n':>5} {'success':>8} {'95% CI':>15} {'time_s':>7} {'peak_kpa':>9} {'max_force_n':>11}   (medians)")
     for r in rows:
-        med = lambda k: "-" if r.get(k) is None else f"{r[k]:.2f}"  # noqa: E731
+        t, pk, f = ("-" if r.get(k) is None else f"{r[k]:.2f}" for k in ("median_time_s", "median_peak_pressure_kpa", "median_max_contact_force_n"))
         ci = f"[{r['success_ci_lo']:.2f}, {r['success_ci_hi']:.2f}]"
-        print(f"{r['design_name']:>14} {r['n']:>5} {r['success_rate']:>8.2f} {ci:>15} {med('median_time_s'):>7} {med('median_peak_pressure_kpa'):>9} {med('median_max_contact_force_n'):>11}")
+        print(f"{r['design_name']:>14} {r['n']:>5} {r['success_rate']:>8.2f} {ci:>15} {t:>7} {pk:>9} {f:>11}")
     print(f"store: {args.db}" + (f"; plot: {args.plot}" if args.plot else ""))
     return 0
 
 
 def cmd_optimize(args: argparse.Namespace) -> int:
-    from evertgym.scoring.optimize import optimize_bands
+    from evertgym.experiments.optimize import optimize_bands
 
     try:
         params = json.loads(args.scene_params)
     except json.JSONDecodeError as e:
         raise CLIError(f"--scene-params = {args.scene_params!r}: malformed JSON: {e}") from None
-    Path(args.study).parent.mkdir(parents=True, exist_ok=True)
+    from evertgym.cli_guard import check_optimize_flags
+
+    check_optimize_flags(args)
     out = optimize_bands(
         {"family": args.scene, "params": params}, args.study, args.db, n_trials=args.trials, n_scenes=args.scenes,
         trials_per_scene=args.trials_per_scene, held_out_scenes=args.held_out, budget_kpa=args.budget_kpa,
         policy=args.policy, backend=args.backend,
     )
     if args.json:
-        print(json.dumps(out, default=float))
+        print(dumps(out, default=float))
         return 0
     print(f"best after {out['trials']} designs: {out['best_params']}")
     print("held-out scenes:")
@@ -439,7 +443,7 @@ def cmd_train(args: argparse.Namespace) -> int:
 
     summary = train(args.config, out_dir=args.out, resume=args.resume, progress=args.progress and not args.json)
     if args.json:
-        print(json.dumps(summary, indent=2))
+        print(dumps(summary, indent=2))
         return 0
     from evertgym.agents.train import load_config
 
@@ -455,14 +459,12 @@ def cmd_train(args: argparse.Namespace) -> int:
 
 def cmd_eval(args: argparse.Namespace) -> int:
     from evertgym.agents.evaluate import evaluate
+    from evertgym.cli_guard import check_eval_flags
 
-    if args.episodes < 1:
-        raise CLIError(f"--episodes = {args.episodes} is out of range: allowed >= 1")
-    if args.workers < 1:
-        raise CLIError(f"--workers = {args.workers} is out of range: allowed >= 1")
-    rows = evaluate(args.policies, args.env, args.episodes, workers=args.workers, progress=not args.json)
+    check_eval_flags(args)
+    rows = evaluate(args.policies, args.env, args.episodes, workers=args.workers, trust=args.trust_model, progress=not args.json)
     if args.json:
-        print(json.dumps({"rows": rows}))
+        print(dumps({"rows": rows}))
         return 0
     print(f"{'policy':30s} {'episodes':>8s} {'success':>8s} {'95% CI':>15s} {'time_to_goal_s':>14s} {'peak_kpa':>9s} {'max_force_n':>11s}")
     for r in rows:
@@ -475,10 +477,12 @@ def cmd_eval(args: argparse.Namespace) -> int:
 
 def cmd_rollout(args: argparse.Namespace) -> int:
     from evertgym.agents.rollout import rollout_gif
+    from evertgym.cli_guard import check_rollout_flags
 
-    info = rollout_gif(args.policy, args.env, args.out, seed=args.seed, progress=not args.json)
+    check_rollout_flags(args)
+    info = rollout_gif(args.policy, args.env, args.out, seed=args.seed, trust=args.trust_model, progress=not args.json)
     if args.json:
-        print(json.dumps(info))
+        print(dumps(info))
         return 0
     cmd = np.asarray(info["command_kpa"])
     print(f"{'success' if info['success'] else 'no success'} after {info['time_s']:.1f} s ({len(cmd)} control steps); "
@@ -491,7 +495,7 @@ def cmd_rollout(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from evertgym import __version__
+    from evertgym._version import __version__
 
     p = _Parser(prog="evertgym", description=__doc__)
     p.add_argument("--version", action="version", version=f"evertgym {__version__}")
@@ -511,6 +515,7 @@ def build_parser() -> argparse.ArgumentParser:
     ru.add_argument("--db", default="runs/reproduce_ubend.sqlite", help="result store (resumable)")
     ru.add_argument("--backend", choices=["process", "serial", "dask"], default="process", help=_BACKEND_HELP)
     ru.add_argument("--workers", type=int, default=None, help="worker processes (default: one per core)")
+    ru.add_argument("--force-workers", action="store_true", help="allow more --workers than CPUs")
     ru.add_argument("--plot", default=None, help="write the success-rate plot (PNG) here")
     ru.add_argument("--anatomy", action="store_true",
                     help="also where the failed trials jammed (free span, tip angle, M/Mc at the bands); "
@@ -556,7 +561,11 @@ def build_parser() -> argparse.ArgumentParser:
     sc.add_argument("--db", default="runs/score.sqlite", help="result store (resumable: finished trials are not rerun)")
     sc.add_argument("--backend", choices=["process", "serial", "dask"], default="process", help=_BACKEND_HELP)
     sc.add_argument("--workers", type=int, default=None, help="worker processes (default: one per core)")
+    sc.add_argument("--force-workers", action="store_true", help="allow more --workers than CPUs")
     sc.add_argument("--address", default=None, help="Dask scheduler address (with --backend dask)")
+    sc.add_argument("--trust-cluster", action="store_true", help="no warning for a Dask --address that is not local")
+    sc.add_argument("--trust-model", action="store_true", help="load a model file that is not a shipped policy: model files are code "
+                         "(pickles) and run when loaded")
     sc.add_argument("--plot", default=None, help="write the success-rate plot (PNG) here")
     sc.add_argument("--json", action="store_true", help=_JSON_HELP)
     sc.set_defaults(func=cmd_score)
@@ -590,6 +599,9 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--episodes", type=int, default=20, help="held-out episodes per policy (the same seeds for each)")
     ev.add_argument("--json", action="store_true", help=_JSON_HELP)
     ev.add_argument("--workers", type=int, default=1, help="processes to spread the episodes over (default 1)")
+    ev.add_argument("--force-workers", action="store_true", help="allow more --workers than CPUs")
+    ev.add_argument("--trust-model", action="store_true", help="load a model file that is not a shipped policy: model files are code "
+                         "(pickles) and run when loaded")
     ev.set_defaults(func=cmd_eval)
 
     ro = _sub(sub, "rollout", "render one episode to a GIF")
@@ -598,6 +610,8 @@ def build_parser() -> argparse.ArgumentParser:
     ro.add_argument("--out", required=True, help="FILE.gif")
     ro.add_argument("--seed", type=int, default=0, help="episode seed")
     ro.add_argument("--json", action="store_true", help="print the outcome and every step's command as JSON")
+    ro.add_argument("--trust-model", action="store_true", help="load a model file that is not a shipped policy: model files are code "
+                         "(pickles) and run when loaded")
     ro.set_defaults(func=cmd_rollout)
 
     bench = _sub(sub, "bench", "benchmarks")
@@ -628,12 +642,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
-    try:
-        return args.func(args)
-    except (CLIError, ValueError) as e:
-        print(f"evertgym: error: {e}", file=sys.stderr)
-        return 2
+    parser = build_parser()
+    no_abbreviations(parser)
+    args = parser.parse_args(argv)
+    return run_command(args.func, args)
 
 
 if __name__ == "__main__":

@@ -26,9 +26,10 @@ from __future__ import annotations
 import json
 import math
 import sys
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -37,13 +38,17 @@ else:  # pragma: no cover - exercised on Python 3.10 only
 
 import tomli_w
 
-from evertgym.model.params import load_params
-from evertgym.model.pressure import InflatedBeamLaw
+from evertgym._validate import check_range
 
 #: Reductions at or above this never everted in the paper (the seal ruptured first).
 MAX_REDUCTION = 0.6
 #: A tube is thin-walled (membrane theory) only while t / r stays below this.
 MAX_THICKNESS_TO_RADIUS = 0.1
+#: The shortest body the simulator builds and grows with its default settings: its 15 mm
+#: initial chain plus one 7.5 mm segment (shorter ones abort inside Chipmunk).
+MIN_LENGTH_M = 0.025
+#: The most bands a design may carry.
+MAX_BANDS = 1000
 
 
 class DesignError(ValueError):
@@ -51,9 +56,11 @@ class DesignError(ValueError):
 
 
 def _finite(name: str, value: Any) -> float:
+    if isinstance(value, (bool, str, bytes)) or value is None:  # no silent true -> 1.0 or "0.3" kept as text
+        raise DesignError(f"{name} = {value!r} is not a number")
     try:
         v = float(value)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise DesignError(f"{name} = {value!r} is not a number") from None
     if not math.isfinite(v):
         raise DesignError(f"{name} = {value!r} is not finite")
@@ -61,15 +68,7 @@ def _finite(name: str, value: Any) -> float:
 
 
 def _in_range(name: str, value: Any, lo: float, hi: float, *, lo_open: bool, hi_open: bool, unit: str = "") -> float:
-    v = _finite(name, value)
-    ok_lo = v > lo if lo_open else v >= lo
-    ok_hi = v < hi if hi_open else v <= hi
-    if not (ok_lo and ok_hi):
-        lb = "(" if lo_open else "["
-        rb = ")" if hi_open else "]"
-        u = f" {unit}" if unit else ""
-        raise DesignError(f"{name} = {value!r} is out of range: allowed {lb}{lo:g}, {hi:g}{rb}{u}")
-    return v
+    return check_range(name, _finite(name, value), lo, hi, lo_open=lo_open, hi_open=hi_open, unit=unit, error=DesignError)
 
 
 @dataclass(frozen=True)
@@ -92,8 +91,9 @@ class Band:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "position_m", _finite("position_m", self.position_m))
-        _in_range("reduction", self.reduction, 0.0, MAX_REDUCTION if self.must_evert else 0.95, lo_open=False, hi_open=True)
-        _in_range("width_m", self.width_m, 0.0, 0.2, lo_open=True, hi_open=False, unit="m")
+        object.__setattr__(self, "reduction", _in_range(
+            "reduction", self.reduction, 0.0, MAX_REDUCTION if self.must_evert else 0.95, lo_open=False, hi_open=True))
+        object.__setattr__(self, "width_m", _in_range("width_m", self.width_m, 0.0, 0.2, lo_open=True, hi_open=False, unit="m"))
 
 
 @dataclass(frozen=True)
@@ -120,7 +120,7 @@ class TubeDesign:
 
     def __post_init__(self) -> None:
         d = _in_range("diameter_m", self.diameter_m, 0.0, 0.5, lo_open=True, hi_open=False, unit="m")
-        _in_range(
+        t = _in_range(
             "wall_thickness_m",
             self.wall_thickness_m,
             0.0,
@@ -129,15 +129,22 @@ class TubeDesign:
             hi_open=True,
             unit="m (thin-walled: below 0.1 x radius)",
         )
-        length = _in_range("length_m", self.length_m, 0.0, 20.0, lo_open=True, hi_open=False, unit="m")
+        length = _in_range("length_m", self.length_m, MIN_LENGTH_M, 20.0, lo_open=False, hi_open=False, unit="m")
+        for name, v in (("diameter_m", d), ("wall_thickness_m", t), ("length_m", length)):
+            object.__setattr__(self, name, v)
         if self.membrane_modulus_pa is not None:
-            _in_range("membrane_modulus_pa", self.membrane_modulus_pa, 0.0, 1e10, lo_open=True, hi_open=False, unit="Pa")
+            object.__setattr__(self, "membrane_modulus_pa", _in_range(
+                "membrane_modulus_pa", self.membrane_modulus_pa, 0.0, 1e10, lo_open=True, hi_open=False, unit="Pa"))
         if self.pressure_stiffening is not None:
-            _in_range("pressure_stiffening", self.pressure_stiffening, 0.0, 10.0, lo_open=False, hi_open=False)
-        bands = tuple(sorted(self.bands, key=lambda b: b.position_m))
-        for i, b in enumerate(bands):
+            object.__setattr__(self, "pressure_stiffening", _in_range(
+                "pressure_stiffening", self.pressure_stiffening, 0.0, 10.0, lo_open=False, hi_open=False))
+        if not isinstance(self.bands, (tuple, list)) or len(self.bands) > MAX_BANDS:
+            raise DesignError(f"bands = {self.bands!r:.60} is not allowed: allowed a list of at most {MAX_BANDS} Band")
+        for i, b in enumerate(self.bands):
             if not isinstance(b, Band):
                 raise DesignError(f"bands[{i}] = {b!r} is not a Band")
+        bands = tuple(sorted(self.bands, key=lambda b: b.position_m))
+        for i, b in enumerate(bands):
             half = b.width_m / 2
             if not (half <= b.position_m <= length - half):
                 raise DesignError(
@@ -159,14 +166,7 @@ class TubeDesign:
     def radius_m(self) -> float:
         return self.diameter_m / 2
 
-    def pressure_law(self) -> InflatedBeamLaw:
-        """The design's :class:`InflatedBeamLaw`, calibrated values where not overridden."""
-        p = load_params()
-        kappa = p.pressure_stiffening if self.pressure_stiffening is None else self.pressure_stiffening
-        e_m = p.membrane_modulus_pa if self.membrane_modulus_pa is None else self.membrane_modulus_pa
-        return InflatedBeamLaw(e_m, kappa, self.radius_m, self.wall_thickness_m, p.poisson_ratio)
-
-    def with_bands_from_tip(self, distances_m: Iterable[float], reduction: float, width_m: float = 0.015) -> "TubeDesign":
+    def with_bands_from_tip(self, distances_m: Iterable[float], reduction: float, width_m: float = 0.015) -> TubeDesign:
         """A copy whose bands sit at the given distances from the tip (m)."""
         bands = tuple(Band(self.length_m - d, reduction, width_m) for d in distances_m)
         return TubeDesign(
@@ -197,7 +197,7 @@ class TubeDesign:
         return d
 
     @classmethod
-    def from_dict(cls, d: Any) -> "TubeDesign":
+    def from_dict(cls, d: Any) -> TubeDesign:
         """Parse the file structure; every malformed field raises :class:`DesignError`."""
         if not isinstance(d, dict):
             raise DesignError(f"design file must hold a table/object, got {type(d).__name__}")
@@ -252,15 +252,23 @@ class TubeDesign:
             path.write_text(json.dumps(self.to_dict(), indent=2) + "\n", encoding="utf-8")
 
     @classmethod
-    def load(cls, path: str | Path) -> "TubeDesign":
+    def load(cls, path: str | Path) -> TubeDesign:
         """Read a TOML or JSON design file."""
         path = Path(path)
-        text = path.read_text(encoding="utf-8")
+        try:
+            text = path.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as e:
+            raise DesignError(f"design file = {str(path)!r}: cannot read it as UTF-8 text ({e})") from None
         try:
             data = tomllib.loads(text) if path.suffix == ".toml" else json.loads(text)
         except (tomllib.TOMLDecodeError, json.JSONDecodeError) as e:
             raise DesignError(f"{path}: malformed design file: {e}") from None
-        return cls.from_dict(data)
+        if data == {}:  # not silently the default design
+            raise DesignError(f"design file = {str(path)!r} is empty: allowed sections tube, bands, pressure_law")
+        try:
+            return cls.from_dict(data)
+        except DesignError as e:
+            raise DesignError(f"{path}: {e}") from None
 
 
 def _no_unknown(section: str, table: dict, allowed: set[str]) -> None:

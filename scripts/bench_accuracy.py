@@ -88,9 +88,9 @@ def plot(rows: list[dict], default_label: str | None, path: Path) -> None:
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.4))
     for ax, key, label, scale in ((axes[0], "tip_force_error", "tip force error vs rod (%)", 100.0),
                                   (axes[1], "ubend_disagreement", "U-bend outcomes differing from the finest (%)", 100.0)):
-        pts = sorted(((r["wall_s_per_sim_s"], r[key] * scale, r["label"]) for r in rows))
+        pts = sorted((r["wall_s_per_sim_s"], r[key] * scale, r["label"]) for r in rows)
         front, best = [], np.inf
-        for x, y, name in pts:
+        for x, y, _name in pts:
             if y < best - PARETO_RTOL * max(abs(y), abs(best) if np.isfinite(best) else 0.0):
                 front.append((x, y))
                 best = y

@@ -22,8 +22,17 @@ import sys
 import time
 from pathlib import Path
 
-from evertgym.bench.peers import (BANDS_FROM_TIP_MM, ERROR_BUDGET, FORCE_TOL, PIP_EXTRA, REPEATS, SPEED_TOL_M_PER_S,
-                                  WINDOW_STEPS, compare, format_table)
+from evertgym.bench.peers import (
+    BANDS_FROM_TIP_MM,
+    ERROR_BUDGET,
+    FORCE_TOL,
+    PIP_EXTRA,
+    REPEATS,
+    SPEED_TOL_M_PER_S,
+    WINDOW_STEPS,
+    compare,
+    format_table,
+)
 
 COMMAND = "PYTHONPATH=. python scripts/bench_peers.py"
 PACKAGES = ("numpy", "scipy", "pymunk", "pyelastica", "numba", "mujoco")

@@ -58,7 +58,7 @@ def main() -> None:
         row.update(length_m=float(x), active=runs[-1]["active"], segments=runs[-1]["segments"], sim_s=runs[-1]["sim_s"])
         rows.append(row)
     b = rows[0]
-    print("wall seconds per simulated second (median of %d runs)" % args.repeats)
+    print(f"wall seconds per simulated second (median of {args.repeats} runs)")
     print(f"{'length_m':>8} {'sim_s':>6} {'growth':>8} {'ratio':>6} {'last_1s':>8} {'ratio':>6} {'hold':>8} {'ratio':>6} {'active/total':>13}")
     for r in rows:
         print(

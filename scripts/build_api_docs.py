@@ -25,11 +25,25 @@ def modules() -> list[str]:
     return [n for n in names if n not in SKIP and not n.startswith("evertgym.shipped") and not n.startswith("evertgym.presets")]
 
 
+def _resolve_lazy_exports(names: list[str]) -> None:
+    """Put each module's lazily exported names (``__all__`` entries served by a module
+    ``__getattr__``, such as ``evertgym.env.EversionEnv``) into its namespace: pdoc reads
+    module dictionaries, not ``__getattr__``."""
+    import importlib
+
+    for name in names:
+        module = importlib.import_module(name)
+        for attr in getattr(module, "__all__", ()):
+            if attr not in vars(module):
+                setattr(module, attr, getattr(module, attr))
+
+
 def build(out: Path) -> list[str]:
     """Write the HTML reference to ``out``; returns the documented module names."""
     import pdoc
 
     names = modules()
+    _resolve_lazy_exports(names)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         # pdoc adds a package's submodules itself when it can; listing them again is harmless

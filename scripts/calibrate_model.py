@@ -15,7 +15,7 @@ import argparse
 import json
 import sys
 
-from evertgym.model.calibration import calibrate, write_params
+from evertgym.experiments.calibration import calibrate, write_params
 from evertgym.model.eversion import fit_eversion_threshold
 from evertgym.model.params import PARAMS_PATH
 

@@ -20,10 +20,10 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from evertgym.experiments.trial import run_trial  # noqa: E402
 from evertgym.scoring import paper  # noqa: E402
 from evertgym.scoring.runner import run_trials  # noqa: E402
 from evertgym.scoring.store import ResultStore  # noqa: E402
-from evertgym.scoring.trial import run_trial  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> dict:
@@ -65,7 +65,7 @@ def main(argv: list[str] | None = None) -> dict:
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        from evertgym.plots import save_figure
+        from evertgym.experiments.plots import save_figure
 
         fig, ax = plt.subplots(figsize=(6.8, 4.4))
         cmap = plt.get_cmap("viridis")

@@ -2,7 +2,7 @@
 
 Runs the trials of ``evertgym reproduce ubend`` (same specs, seeds and randomisation) for
 the chosen radii and band reductions, and for every trial that fails measures the stalled
-tip region with :func:`evertgym.scoring.jam.jam_anatomy`.  Prints one row per design and
+tip region with :func:`evertgym.sim.diagnostics.jam_anatomy`.  Prints one row per design and
 radius (medians over the failed trials) and, with ``--write``, the page docs/ubend_jams.md.
 
     PYTHONPATH=. python scripts/ubend_jam_anatomy.py                  # about 1 min on 2 cores
@@ -25,10 +25,10 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from evertgym.experiments.trial import run_trial  # noqa: E402
 from evertgym.scoring import paper  # noqa: E402
 from evertgym.scoring.runner import run_trials  # noqa: E402
 from evertgym.scoring.store import ResultStore  # noqa: E402
-from evertgym.scoring.trial import run_trial  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> dict:
@@ -75,7 +75,7 @@ def main(argv: list[str] | None = None) -> dict:
             "`evertgym reproduce ubend --anatomy` prints the same columns for all nine radii. Bands at "
             f"{bands_text} mm from the base, shifted by one uniform draw in +/- 25 mm per trial, as in "
             "`evertgym reproduce ubend`. Each jam column is the median over the failed trials, measured on the "
-            "stalled robot by `evertgym.scoring.jam.jam_anatomy`:\n\n"
+            "stalled robot by `evertgym.sim.diagnostics.jam_anatomy`:\n\n"
             "* *turn at jam*: how far the channel has turned at the tip (180 is the end of the U);\n"
             "* *tip heading error*: the tip's heading minus the channel's (negative: the tip points into the outer wall);\n"
             "* *free span*: body between the last wall contact behind the tip and the tip;\n"

@@ -12,9 +12,21 @@ import pytest
 from scipy.integrate import quad
 
 from evertgym.bench import peers
-from evertgym.bench.peers import (Case, Engine, Relaxed, choose_discretisation, default_case, force_error,
-                                  format_table, mean_stiffness, mujoco_stiffness, pyelastica_stiffness, reference,
-                                  relax, start_shape)
+from evertgym.bench.peers import (
+    Case,
+    Engine,
+    Relaxed,
+    choose_discretisation,
+    default_case,
+    force_error,
+    format_table,
+    mean_stiffness,
+    mujoco_stiffness,
+    pyelastica_stiffness,
+    reference,
+    relax,
+    start_shape,
+)
 from evertgym.cli import build_parser, cmd_bench_peers
 from evertgym.design import TubeDesign
 from evertgym.sim.discretize import joint_law

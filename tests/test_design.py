@@ -15,7 +15,7 @@ from evertgym.design import Band, DesignError, TubeDesign
         (dict(diameter_m=float("nan")), "diameter_m", "not finite"),
         (dict(wall_thickness_m=0.0), "wall_thickness_m", "(0, 0.002)"),
         (dict(wall_thickness_m=0.005), "wall_thickness_m", "thin-walled"),
-        (dict(length_m=-1.0), "length_m", "(0, 20]"),
+        (dict(length_m=-1.0), "length_m", "[0.025, 20]"),
         (dict(length_m="long"), "length_m", "not a number"),
         (dict(pressure_stiffening=-1.0), "pressure_stiffening", "[0, 10]"),
         (dict(membrane_modulus_pa=0.0), "membrane_modulus_pa", "(0, 1e+10]"),

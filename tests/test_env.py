@@ -7,7 +7,6 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 from stable_baselines3.common.env_checker import check_env as sb3_check_env
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
-import evertgym
 from evertgym.env import EversionEnv, register_envs
 
 IDS = ["evertgym/UBend-v0", "evertgym/Tortuous-v0", "evertgym/Colon-v0"]
@@ -129,7 +128,7 @@ def test_success_terminates_with_info():
 def test_time_limit_truncates():
     env = EversionEnv(max_episode_s=1.0)
     env.reset(seed=0)
-    for k in range(20):
+    for k in range(20):  # noqa: B007 - k is read after the loop
         _, _, term, trunc, _ = env.step(np.array([-1.0], dtype=np.float32))  # 0 kPa: never grows
         if term or trunc:
             break
@@ -172,7 +171,6 @@ def test_gymnasium_vector_env():
 
 
 def _make_ubend():
-    import evertgym  # noqa: F401  (registers in the worker)
 
     return gym.make("evertgym/UBend-v0")
 

@@ -5,9 +5,9 @@ import json
 import pytest
 
 from evertgym.cli import main
+from evertgym.experiments.eversion import everts, min_eversion_pressure, paper_eversion_robot, reproduce_eversion
 from evertgym.model.eversion import EversionThreshold, fit_eversion_threshold
 from evertgym.model.params import load_measurements
-from evertgym.sim.eversion_test import everts, min_eversion_pressure, paper_eversion_robot, reproduce_eversion
 
 TABLE = {r["diameter_reduction"]: r for r in load_measurements()["eversion_pressure_test"]["rows"]}
 

@@ -8,7 +8,8 @@ import pytest
 
 import evertgym  # noqa: F401
 from evertgym.agents import load_policy, shipped_policies
-from evertgym.agents.load import resolve_policy_path, shipped_dir
+from evertgym.agents.policies import resolve_policy_path
+from evertgym.agents.tuned import shipped_dir
 
 pytest.importorskip("stable_baselines3")
 

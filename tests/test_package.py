@@ -91,9 +91,9 @@ def test_wheel_carries_the_data_and_runs_from_a_fresh_venv(tmp_path):
                    check=True, timeout=600)
     wheel = next((tmp_path / "dist").glob("evertgym-*.whl"))
     names = set(zipfile.ZipFile(wheel).namelist())
-    for f in ("evertgym/shipped/tuned_operator.json", "evertgym/shipped/colon_ppo/final.zip",
-              "evertgym/shipped/colon_ppo/final_env.json", "evertgym/shipped/colon_ppo/final_vecnormalize.pkl",
-              "evertgym/shipped/ppo.yml", "evertgym/presets/colon.toml", "evertgym/data/model_params.json"):
+    for f in ("evertgym/shipped_agents/tuned_operator.json", "evertgym/shipped_agents/colon_ppo/final.zip",
+              "evertgym/shipped_agents/colon_ppo/final_env.json", "evertgym/shipped_agents/colon_ppo/final_vecnormalize.pkl",
+              "evertgym/shipped_agents/ppo.yml", "evertgym/presets/colon.toml", "evertgym/data/model_params.json"):
         assert f in names, f
     venv = tmp_path / "venv"
     subprocess.run([sys.executable, "-m", "venv", "--system-site-packages", str(venv)], check=True, timeout=300)

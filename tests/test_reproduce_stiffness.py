@@ -5,8 +5,9 @@ import json
 import pytest
 
 from evertgym.cli import main
+from evertgym.experiments.stiffness import reproduce_stiffness
 from evertgym.model.params import load_params
-from evertgym.model.stiffness import paper_rows, reproduce_stiffness
+from evertgym.model.stiffness import paper_rows
 
 
 @pytest.fixture(scope="module")
@@ -68,7 +69,7 @@ def test_stiffness_cli_json(capsys):
     [
         (["--reduction", "0.7", "--bands-from-tip-mm", "50"], "--reduction = 0.7 is out of range"),
         (["--length-mm", "-5"], "--length-mm = -5.0 is out of range"),
-        (["--pressure-kpa", "9"], "--pressure-kpa = 9.0 is out of range: allowed [0, 8] kPa"),
+        (["--pressure-kpa", "9"], "--pressure-kpa = 9.0 is out of range: allowed [0.01, 8] kPa"),
         (["--displacement-mm", "nan"], "--displacement-mm = nan is out of range"),
         (["--bands-from-tip-mm", "50,abc"], "--bands-from-tip-mm = '50,abc'"),
         (["--bands-from-tip-mm", "700"], "bands[0].position_m"),

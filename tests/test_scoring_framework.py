@@ -14,11 +14,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _fake_trial import crashing_trial, failing_trial, fake_trial, invalid_trial, make_specs
 from hypothesis import given
 from hypothesis import strategies as st
 from scipy.stats import binomtest, norm
 
-from _fake_trial import crashing_trial, failing_trial, fake_trial, invalid_trial, make_specs
 from evertgym.scoring import (
     ResultStore,
     TrialRecord,

@@ -6,10 +6,9 @@ import math
 import pytest
 
 from evertgym.cli import main
-from evertgym.scoring.paper import colon_specs, ubend_specs
-from evertgym.scoring.spec import TrialSpec
-from evertgym.scoring.jam import jam_anatomy
-from evertgym.scoring.trial import play_trial, run_trial
+from evertgym.experiments.paper import colon_specs, ubend_specs
+from evertgym.experiments.trial import play_trial, run_trial
+from evertgym.sim.diagnostics import jam_anatomy
 
 
 def test_ubend_specs_follow_the_protocol():
@@ -174,7 +173,7 @@ def test_score_rejects_bad_input(tmp_path, capsys, argv, message):
 
 
 def test_optimize_resumes_its_study_and_compares_with_the_paper_design(tmp_path):
-    from evertgym.scoring.optimize import band_design, optimize_bands
+    from evertgym.experiments.optimize import band_design, optimize_bands
 
     d = band_design(3, 50.0, 0.1, 300.0, 40.0, 900.0)
     assert [b["position_mm"] for b in d["bands"]] == [200.0, 250.0, 300.0]

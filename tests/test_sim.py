@@ -7,11 +7,11 @@ import pymunk
 import pytest
 
 from evertgym.design import Band, TubeDesign
+from evertgym.model.section import TubeSection
 from evertgym.model.stiffness import paper_prototype, paper_rows, virtual_tensile_test
 from evertgym.sim import EversionSim, NumericalInstabilityError, SimConfig
 from evertgym.sim.discretize import hat_compliance, joint_moment
 from evertgym.sim.tensile import sim_tensile_test
-from evertgym.model.section import TubeSection
 
 CONFIGS = sorted({(r.bands_from_tip_mm, r.reduction) for r in paper_rows()})
 

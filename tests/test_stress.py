@@ -528,8 +528,8 @@ def colon_escape_m() -> float:
     """Largest distance (m) the 20 mm robot's surface reaches beyond the colon wall at its full
     travel plus a wall thickness, over the paper's banded case study (operator protocol)."""
     from evertgym.agents.policies import make_policy
-    from evertgym.scoring.paper import colon_specs
-    from evertgym.scoring.trial import make_trial_env
+    from evertgym.experiments.paper import colon_specs
+    from evertgym.experiments.trial import make_trial_env
 
     spec = colon_specs()[1]
     env = make_trial_env(spec)

@@ -1,7 +1,16 @@
 """The agents layer: baseline pressure policies, SB3 training and evaluation."""
 
-from evertgym.agents.baselines import ConstantPressure, OperatorProtocol, Policy, PressureCycling, make_baseline, pressure_to_action
-from evertgym.agents.load import load_policy, shipped_policies
+from evertgym.agents.baselines import (
+    ConstantPressure,
+    OperatorProtocol,
+    Policy,
+    PressureCycling,
+    pressure_to_action,
+)
+from evertgym.agents.load import load_policy
+from evertgym.agents.policies import make_baseline, make_policy, shipped_policies
 
-__all__ = ["ConstantPressure", "OperatorProtocol", "Policy", "PressureCycling", "load_policy", "make_baseline",
-           "pressure_to_action", "shipped_policies"]
+__all__ = [
+    "ConstantPressure", "OperatorProtocol", "Policy", "PressureCycling", "load_policy", "make_baseline", "make_policy",
+    "pressure_to_action", "shipped_policies",
+]

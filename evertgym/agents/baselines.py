@@ -8,12 +8,12 @@ the measured insertion length (``info["insertion_length_mm"]``) and the clock.
 
 from __future__ import annotations
 
-import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from evertgym._validate import check_range
 from evertgym.sim.growth import MAX_PRESSURE_PA
 
 
@@ -22,16 +22,16 @@ def pressure_to_action(pressure_kpa: float) -> np.ndarray:
     return np.array([2.0 * pressure_kpa * 1e3 / MAX_PRESSURE_PA - 1.0], dtype=np.float32)
 
 
-def _check(name: str, value: float, lo: float, hi: float, unit: str, lo_open: bool = False) -> None:
-    ok = isinstance(value, (int, float)) and math.isfinite(value) and (lo < value if lo_open else lo <= value) and value <= hi
-    if not ok:
-        raise ValueError(f"{name} = {value!r} is out of range: allowed {'(' if lo_open else '['}{lo:g}, {hi:g}] {unit}")
-
-
 class Policy(ABC):
     """Interface: ``reset(env)`` then ``act(obs, info) -> action`` each control step."""
 
     name = "policy"
+
+    @property
+    def max_command_kpa(self) -> float:
+        """The highest pressure (kPa) this policy ever commands: a robot stalled at it will
+        get no more help (scored trials give up on it).  The seal's 8 kPa unless capped."""
+        return MAX_PRESSURE_PA / 1e3
 
     def reset(self, env) -> None:
         self.dt = env.unwrapped.control_dt
@@ -49,7 +49,11 @@ class ConstantPressure(Policy):
     name: str = field(default="constant", init=False)
 
     def __post_init__(self) -> None:
-        _check("pressure_kpa", self.pressure_kpa, 0.0, 8.0, "kPa")
+        check_range("pressure_kpa", self.pressure_kpa, 0.0, 8.0, unit="kPa")
+
+    @property
+    def max_command_kpa(self) -> float:
+        return self.pressure_kpa
 
     def act(self, obs, info):
         return pressure_to_action(self.pressure_kpa)
@@ -76,12 +80,16 @@ class OperatorProtocol(Policy):
     name: str = field(default="operator", init=False)
 
     def __post_init__(self) -> None:
-        _check("start_kpa", self.start_kpa, 0.0, 8.0, "kPa")
-        _check("step_kpa", self.step_kpa, 0.0, 8.0, "kPa")
-        _check("stall_s", self.stall_s, 0.0, 60.0, "s")
-        _check("stall_mm", self.stall_mm, 0.0, 1000.0, "mm")
-        _check("max_kpa", self.max_kpa, 0.0, 8.0, "kPa")
-        _check("relax_kpa_per_s", self.relax_kpa_per_s, 0.0, 100.0, "kPa/s")
+        check_range("start_kpa", self.start_kpa, 0.0, 8.0, unit="kPa")
+        check_range("step_kpa", self.step_kpa, 0.0, 8.0, unit="kPa")
+        check_range("stall_s", self.stall_s, 0.0, 60.0, unit="s")
+        check_range("stall_mm", self.stall_mm, 0.0, 1000.0, unit="mm")
+        check_range("max_kpa", self.max_kpa, 0.0, 8.0, unit="kPa")
+        check_range("relax_kpa_per_s", self.relax_kpa_per_s, 0.0, 100.0, unit="kPa/s")
+
+    @property
+    def max_command_kpa(self) -> float:
+        return self.max_kpa
 
     def reset(self, env) -> None:
         super().reset(env)
@@ -113,9 +121,13 @@ class PressureCycling(Policy):
     name: str = field(default="cycle", init=False)
 
     def __post_init__(self) -> None:
-        _check("low_kpa", self.low_kpa, 0.0, 8.0, "kPa")
-        _check("high_kpa", self.high_kpa, 0.0, 8.0, "kPa")
-        _check("period_s", self.period_s, 0.0, 600.0, "s", lo_open=True)
+        check_range("low_kpa", self.low_kpa, 0.0, 8.0, unit="kPa")
+        check_range("high_kpa", self.high_kpa, 0.0, 8.0, unit="kPa")
+        check_range("period_s", self.period_s, 0.0, 600.0, unit="s", lo_open=True)
+
+    @property
+    def max_command_kpa(self) -> float:
+        return max(self.low_kpa, self.high_kpa)
 
     def reset(self, env) -> None:
         super().reset(env)
@@ -128,14 +140,3 @@ class PressureCycling(Policy):
 
 
 BASELINES = {"constant": ConstantPressure, "operator": OperatorProtocol, "cycle": PressureCycling}
-
-
-def make_baseline(name: str, **kwargs) -> Policy:
-    """A baseline policy by name (``constant``, ``operator``, ``cycle``, ``tuned``) with its parameters."""
-    if name == "tuned":
-        from evertgym.agents.tuned import load_tuned
-
-        return load_tuned(**kwargs)
-    if name not in BASELINES:
-        raise ValueError(f"unknown baseline {name!r}: allowed {sorted(BASELINES) + ['tuned']}")
-    return BASELINES[name](**kwargs)

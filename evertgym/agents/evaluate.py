@@ -1,100 +1,110 @@
-"""Side-by-side evaluation of policies on the same held-out episodes."""
+"""Side-by-side evaluation of policies on the same held-out episodes.
+
+The episodes run through the scoring layer's backends (:mod:`evertgym.scoring.backends`):
+one episode is one :class:`~evertgym.scoring.spec.TrialSpec` whose ``scene`` names the env id
+and its kwargs, so evaluation and scored trials share one process-pool runner.
+"""
 
 from __future__ import annotations
 
+import functools
 import math
+from collections.abc import Callable
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
 
-from evertgym.agents.policies import make_policy
+from evertgym.agents.baselines import Policy
+from evertgym.agents.policies import make_policy, policy_desc
 from evertgym.env.eversion_env import HELD_OUT_SEED_BASE
+from evertgym.limits import MAX_EPISODES
+from evertgym.scoring.backends import process_backend, serial_backend
+from evertgym.scoring.spec import TrialSpec, canonical_json
 from evertgym.scoring.stats import wilson_interval
 
 
-def run_episode(env, policy, seed: int) -> dict:
-    obs, info = env.reset(seed=seed, options={"scene_seed": seed})
+def run_episode(env: Any, policy: Policy, seed: int, options: dict | None = None,
+                stop: Callable[[Any, dict], bool] | None = None) -> dict:
+    """Play one episode of ``env`` under ``policy`` from ``reset(seed, options)``; returns the
+    last step's ``info``.  ``stop(env, info)``, called after every step, may end it early."""
+    obs, info = env.reset(seed=seed, options=options)
     policy.reset(env)
     while True:
         obs, _, term, trunc, info = env.step(policy.act(obs, info))
-        if term or trunc:
+        if term or trunc or (stop is not None and stop(env, info)):
             return info
 
 
-def _run_episodes(desc: str | dict, env_id: str, env_kwargs: dict | None, seeds: list[int], bar=None) -> list[dict]:
-    """Final ``info`` of one episode per seed (episode and scene seed alike) for one policy;
-    ``bar`` (a tqdm bar) advances by one per episode."""
-    import evertgym  # noqa: F401  (registers the envs)
+@functools.lru_cache(maxsize=4)
+def _policy_and_env(policy_json: str, env_id: str, kwargs_json: str) -> tuple[Policy, Any]:
+    """One policy and env per (policy, env) in each worker: a model loads once, not per episode."""
+    import json
 
-    policy = make_policy(desc)
+    policy = make_policy(json.loads(policy_json))  # trust travels in the description
     # observation flags a trained model needs; they do not change the physics
-    env = gym.make(env_id, **{**(env_kwargs or {}), **getattr(policy, "env_kwargs", {})})
-    try:
-        infos = []
-        for seed in seeds:
-            infos.append(run_episode(env, policy, seed))
-            if bar is not None:
-                bar.update(1)
-        return infos
-    finally:
-        env.close()
+    env = gym.make(env_id, **{**json.loads(kwargs_json), **getattr(policy, "env_kwargs", {})})
+    if getattr(policy, "name", "") == "agent":
+        import torch
+
+        torch.set_num_threads(1)  # one episode per process: no thread oversubscription
+    return policy, env
 
 
-def _advance(bar, n: int):
-    """A future's done-callback that advances the progress bar by ``n`` episodes."""
-    return lambda _future: bar.update(n)
+def episode_trial(spec: TrialSpec) -> dict:
+    """Trial function of one evaluation episode: ``spec.scene`` is ``{"family": env id,
+    "params": env kwargs, "seed": episode seed}``; episode and scene seed are ``spec.seed``."""
+    policy, env = _policy_and_env(canonical_json(spec.policy), spec.scene["family"], canonical_json(spec.scene["params"]))
+    return run_episode(env, policy, spec.seed, options={"scene_seed": spec.seed})
 
 
-def _worker_init() -> None:
-    import torch
-
-    torch.set_num_threads(1)
+def _label(desc: str | dict) -> str:
+    return desc if isinstance(desc, str) else str(desc.get("name", desc))
 
 
 def evaluate(policies: list[str | dict], env_id: str, episodes: int, env_kwargs: dict | None = None,
-             seed_base: int = HELD_OUT_SEED_BASE, workers: int = 1, progress: bool = False) -> list[dict]:
+             seed_base: int = HELD_OUT_SEED_BASE, workers: int = 1, trust: bool = False,
+             progress: bool = False) -> list[dict]:
     """One row per policy: success rate (Wilson 95%), mean time to goal, peak pressure and
     max contact force over ``episodes`` episodes whose seeds (and scene seeds) are
     ``seed_base + i``, the same for every policy.  ``workers > 1`` spreads the episodes
     over that many processes; every episode is seeded, so the rows do not change.
+    ``trust=True`` loads saved models that are not shipped policies (model files are code).
     ``progress`` shows a bar over all policies' episodes (on stderr)."""
     from tqdm import tqdm
 
-    if not (isinstance(episodes, int) and episodes >= 1):
-        raise ValueError(f"episodes = {episodes!r} is out of range: allowed integers >= 1")
+    if not (isinstance(episodes, int) and 1 <= episodes <= MAX_EPISODES):
+        raise ValueError(f"episodes = {episodes!r} is out of range: allowed integers in [1, {MAX_EPISODES}]")
     if not (isinstance(workers, int) and workers >= 1):
         raise ValueError(f"workers = {workers!r} is out of range: allowed integers >= 1")
-    seeds = [seed_base + i for i in range(episodes)]
-    bar = tqdm(total=episodes * len(policies), desc="eval", unit="episode", disable=not progress)
-    size = -(-episodes // workers)  # contiguous chunks: concatenated, they are in seed order
-    chunks = [seeds[k:k + size] for k in range(0, episodes, size)]
-    if len(chunks) > 1:
-        import multiprocessing as mp
-        from concurrent.futures import ProcessPoolExecutor
-
-        with ProcessPoolExecutor(len(chunks), mp_context=mp.get_context("spawn"), initializer=_worker_init) as pool:
-            futures = [[pool.submit(_run_episodes, desc, env_id, env_kwargs, c) for c in chunks] for desc in policies]
-            for fs in futures:
-                for f, c in zip(fs, chunks):
-                    f.add_done_callback(_advance(bar, len(c)))
-            results = [[info for f in fs for info in f.result()] for fs in futures]
-    else:
-        results = [_run_episodes(desc, env_id, env_kwargs, seeds, bar) for desc in policies]
-    bar.close()
+    specs = [
+        TrialSpec(design={}, design_name=env_id, scene={"family": env_id, "params": dict(env_kwargs or {}), "seed": seed_base + i},
+                  policy={**policy_desc(desc), **({"trust": True} if trust else {})}, seed=seed_base + i, index=i,
+                  group=_label(desc))
+        for desc in policies for i in range(episodes)
+    ]
+    backend = process_backend if workers > 1 else serial_backend
+    infos: dict[str, dict] = {}
+    for spec, out in tqdm(backend(episode_trial, specs, min(workers, len(specs))), total=len(specs), desc="eval",
+                          unit="episode", disable=not progress):
+        if out.error is not None:
+            raise RuntimeError(f"policy {spec.group!r}, episode seed {spec.seed}: {out.error}")
+        infos[spec.key] = out.result
     rows = []
-    for desc, infos in zip(policies, results):
-        wins = [i for i in infos if i["success"]]
+    for k, desc in enumerate(policies):
+        episode_infos = [infos[s.key] for s in specs[k * episodes:(k + 1) * episodes]]
+        wins = [i for i in episode_infos if i["success"]]
         lo, hi = wilson_interval(len(wins), episodes)
         rows.append(
             {
-                "policy": desc if isinstance(desc, str) else desc.get("name", str(desc)),
+                "policy": _label(desc),
                 "episodes": episodes,
                 "success_rate": len(wins) / episodes,
                 "ci_low": lo,
                 "ci_high": hi,
                 "mean_time_to_goal_s": float(np.mean([i["time_s"] for i in wins])) if wins else math.nan,
-                "mean_peak_pressure_kpa": float(np.mean([i["peak_pressure_kpa"] for i in infos])),
-                "mean_max_contact_force_n": float(np.mean([i["max_contact_force_n"] for i in infos])),
+                "mean_peak_pressure_kpa": float(np.mean([i["peak_pressure_kpa"] for i in episode_infos])),
+                "mean_max_contact_force_n": float(np.mean([i["max_contact_force_n"] for i in episode_infos])),
             }
         )
     return rows

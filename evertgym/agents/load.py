@@ -1,6 +1,6 @@
 """Shipped agents from Python: the ``agents/`` folder, and trained policies by name or path.
 
-The repository's ``agents/`` folder (installed as the package ``evertgym.shipped``) holds
+The repository's ``agents/`` folder (installed as the package ``evertgym.shipped_agents``) holds
 the training configs, the tuned heuristic's parameters and the small trained policies::
 
     import gymnasium as gym
@@ -22,9 +22,7 @@ import json
 from pathlib import Path
 
 from evertgym.agents.baselines import Policy
-
-#: The repository's agents folder; an installed wheel carries it as ``evertgym.shipped``.
-AGENTS_DIR = Path(__file__).resolve().parents[2] / "agents"
+from evertgym.agents.policies import SB3Policy, resolve_policy_path
 
 
 def require_rl(what: str) -> None:
@@ -36,36 +34,8 @@ def require_rl(what: str) -> None:
         raise ImportError(f"{what} needs the rl extra (PyTorch, stable-baselines3): pip install 'evertgym[rl]' ({e})") from e
 
 
-def shipped_dir() -> Path:
-    """The folder of shipped configs and policies (a checkout's ``agents/`` or the wheel's copy)."""
-    if (AGENTS_DIR / "tuned_operator.json").is_file():
-        return AGENTS_DIR
-    from importlib.resources import files
-
-    return Path(str(files("evertgym.shipped")))
-
-
-def shipped_policies() -> list[str]:
-    """Names of the shipped trained policies (``load_policy`` accepts each)."""
-    return sorted(p.parent.name for p in shipped_dir().glob("*/final.zip"))
-
-
-def resolve_policy_path(name_or_path: str | Path) -> Path:
-    """``"colon_ppo"`` -> the shipped ``agents/colon_ppo/final.zip``; a run folder -> its
-    ``final.zip``; a ``.zip`` path -> itself.  Raises ``ValueError`` naming the shipped ones."""
-    p = Path(name_or_path)
-    if p.suffix == ".zip" and p.is_file():
-        return p
-    if p.is_dir() and (p / "final.zip").is_file():
-        return p / "final.zip"
-    shipped = shipped_dir() / str(name_or_path) / "final.zip"
-    if shipped.is_file():
-        return shipped
-    raise ValueError(f"policy {str(name_or_path)!r}: neither a saved model (.zip), a run folder with final.zip, "
-                     f"nor a shipped policy; shipped: {shipped_policies()}")
-
-
-def load_policy(name_or_path: str | Path, deterministic: bool | None = None) -> tuple[Policy, str | None, dict]:
+def load_policy(name_or_path: str | Path, deterministic: bool | None = None,
+                trust: bool = False) -> tuple[Policy, str | None, dict]:
     """A trained policy with the env id and env kwargs it was trained with.
 
     ``name_or_path`` is a shipped policy's name (:func:`shipped_policies`, e.g.
@@ -74,13 +44,12 @@ def load_policy(name_or_path: str | Path, deterministic: bool | None = None) -> 
     (``env_id`` is None when no ``<stem>_env.json`` sits beside the model).  The policy
     has the :class:`~evertgym.agents.baselines.Policy` interface (``reset(env)``,
     ``act(obs, info)``) and applies the model's VecNormalize statistics itself; its SB3
-    model is ``policy.model``.
+    model is ``policy.model``.  A model that is not a shipped policy loads only with
+    ``trust=True`` (model files are code: :mod:`evertgym.agents.trust`).
     """
     require_rl("load_policy")
-    from evertgym.agents.policies import SB3Policy
-
     path = resolve_policy_path(name_or_path)
-    policy = SB3Policy(path, deterministic)
+    policy = SB3Policy(path, deterministic, trust=trust)
     meta = path.with_name(path.stem + "_env.json")
     env_id = json.loads(meta.read_text()).get("env_id") if meta.exists() else None
     if env_id is not None:
@@ -94,8 +63,9 @@ def _adopt_observation_space(model, env_id: str, env_kwargs: dict) -> None:
     the same.  Only when the shapes agree: a real mismatch still fails there."""
     import gymnasium as gym
 
-    import evertgym  # noqa: F401  (registers the envs)
+    from evertgym.env import register_envs
 
+    register_envs()
     env = gym.make(env_id, **env_kwargs)
     space = env.observation_space
     env.close()

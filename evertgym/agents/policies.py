@@ -7,7 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from evertgym.agents.baselines import Policy, make_baseline
+from evertgym.agents.baselines import BASELINES, Policy
+from evertgym.agents.tuned import load_tuned, shipped_dir
 
 
 class SB3Policy(Policy):
@@ -18,16 +19,24 @@ class SB3Policy(Policy):
     (PPO only) with a generator seeded by each episode's seed, so a stochastic evaluation
     is repeatable too.  ``deterministic=None`` takes the mode the model was shipped with
     (``"deterministic"`` in ``<stem>_env.json``; default True).
+
+    The zip and the ``.pkl`` are code (pickles): they load only if their SHA-256 is in the
+    manifest of shipped policies or ``trust=True`` (:mod:`evertgym.agents.trust`).
     """
 
     name = "agent"
 
-    def __init__(self, path: str | Path, deterministic: bool | None = None):
+    def __init__(self, path: str | Path, deterministic: bool | None = None, trust: bool = False):
         from stable_baselines3 import PPO, SAC
 
+        from evertgym.agents.trust import check_trusted
+
         path = Path(path)
-        if not path.exists():
-            raise ValueError(f"policy path = {str(path)!r} does not exist")
+        if not path.is_file():
+            raise ValueError(f"policy path = {str(path)!r} is not a file")
+        stats = path.with_name(path.stem + "_vecnormalize.pkl")
+        for f in (path, stats) if stats.exists() else (path,):
+            check_trusted(f, trust)
         last_error = None
         for cls in (PPO, SAC):
             try:
@@ -45,13 +54,12 @@ class SB3Policy(Policy):
         if not self.deterministic and not isinstance(self.model, PPO):
             raise ValueError(f"policy path = {str(path)!r}: stochastic actions are supported for PPO models only")
         self.rng = np.random.default_rng(0)
-        stats = path.with_name(path.stem + "_vecnormalize.pkl")
         self.obs_rms = None
         if stats.exists():
             import pickle
 
-            with open(stats, "rb") as f:
-                vn = pickle.load(f)
+            with open(stats, "rb") as fh:
+                vn = pickle.load(fh)
             self.obs_rms, self.clip_obs, self.epsilon = vn.obs_rms, vn.clip_obs, vn.epsilon
 
     def reset(self, env) -> None:
@@ -76,26 +84,67 @@ class SB3Policy(Policy):
         return np.clip(action, -1.0, 1.0).astype(np.float32).reshape(1)
 
 
-def make_policy(desc: dict | str) -> Policy:
-    """``{"name": "constant", "pressure_kpa": 3}``, ``"operator"``, ``{"name": "agent", "path": ...,
-    "deterministic": ...}``, a shipped policy's name (``"colon_ppo"``) or the path of a saved model, optionally with its action mode
-    (``"model.zip:stochastic"``, ``"model.zip:deterministic"``)."""
+def make_baseline(name: str, **kwargs) -> Policy:
+    """A baseline policy by name (``constant``, ``operator``, ``cycle``, ``tuned``) with its parameters."""
+    if name == "tuned":
+        return load_tuned(**kwargs)
+    if name not in BASELINES:
+        raise ValueError(f"unknown baseline {name!r}: allowed {sorted(BASELINES) + ['tuned']}")
+    try:
+        return BASELINES[name](**kwargs)
+    except TypeError as e:  # an unknown parameter: name it, as for any bad field
+        raise ValueError(f"policy {name!r}: {e}") from None
+
+
+def policy_desc(desc: dict | str) -> dict:
+    """A policy description as a dict with a ``name``: ``"operator"`` -> ``{"name": "operator"}``,
+    ``"model.zip"`` (optionally ``"model.zip:deterministic"`` / ``":stochastic"``) ->
+    ``{"name": "agent", "path": ..., ...}``; dicts pass through (copied)."""
     if isinstance(desc, str):
         path, _, mode = desc.partition(".zip:")
         if mode:  # "model.zip:deterministic" or "model.zip:stochastic"
             if mode not in ("deterministic", "stochastic"):
                 raise ValueError(f"policy = {desc!r}: the mode after '.zip:' must be 'deterministic' or 'stochastic'")
-            desc = {"name": "agent", "path": path + ".zip", "deterministic": mode == "deterministic"}
-        else:
-            desc = {"name": "agent", "path": desc} if desc.endswith(".zip") else {"name": desc}
-    desc = dict(desc)
+            return {"name": "agent", "path": path + ".zip", "deterministic": mode == "deterministic"}
+        return {"name": "agent", "path": desc} if desc.endswith(".zip") else {"name": desc}
+    if not isinstance(desc, dict):
+        raise ValueError(f"policy = {desc!r}: allowed a name, a model path or a dict with a name")
+    return dict(desc)
+
+
+def shipped_policies() -> list[str]:
+    """Names of the shipped trained policies (``load_policy`` accepts each)."""
+    return sorted(p.parent.name for p in shipped_dir().glob("*/final.zip"))
+
+
+def resolve_policy_path(name_or_path: str | Path) -> Path:
+    """``"colon_ppo"`` -> the shipped ``agents/colon_ppo/final.zip``; a run folder -> its
+    ``final.zip``; a ``.zip`` path -> itself.  Raises ``ValueError`` naming the shipped ones."""
+    p = Path(name_or_path)
+    if p.suffix == ".zip" and p.is_file():
+        return p
+    if p.is_dir() and (p / "final.zip").is_file():
+        return p / "final.zip"
+    shipped = shipped_dir() / str(name_or_path) / "final.zip"
+    if shipped.is_file():
+        return shipped
+    raise ValueError(f"policy {str(name_or_path)!r}: neither a saved model (.zip), a run folder with final.zip, "
+                     f"nor a shipped policy; shipped: {shipped_policies()}")
+
+
+def make_policy(desc: dict | str, trust: bool = False) -> Policy:
+    """``{"name": "constant", "pressure_kpa": 3}``, ``"operator"``, ``{"name": "agent", "path": ...,
+    "deterministic": ...}`` or the path of a saved model, optionally with its action mode
+    (``"model.zip:stochastic"``, ``"model.zip:deterministic"``), or a shipped policy by name
+    (``"colon_ppo"``).  A saved model loads only if it is a shipped policy or ``trust`` is set
+    (or the dict holds ``"trust": True``)."""
+    desc = policy_desc(desc)
     name = desc.pop("name", None)
+    trust = bool(desc.pop("trust", False)) or trust
     if name == "agent":
-        return SB3Policy(desc["path"], desc.get("deterministic"))
+        return SB3Policy(desc["path"], desc.get("deterministic"), trust=trust)
     if name is None:
         raise ValueError("policy must have a name: constant, operator, tuned or agent")
-    from evertgym.agents.load import resolve_policy_path, shipped_policies
-
     if name in shipped_policies():  # a shipped trained policy by name, e.g. "colon_ppo"
-        return SB3Policy(resolve_policy_path(name), desc.get("deterministic"))
+        return SB3Policy(resolve_policy_path(name), desc.get("deterministic"), trust=trust)
     return make_baseline(name, **desc)

@@ -5,24 +5,24 @@ from __future__ import annotations
 from pathlib import Path
 
 import gymnasium as gym
+import numpy as np
 
 from evertgym.agents.policies import make_policy
 
 
-def rollout_gif(policy_desc: str, env_id: str, out: str | Path, seed: int = 0, every: int = 2,
+def rollout_gif(policy_desc: str, env_id: str, out: str | Path, seed: int = 0, every: int = 2, trust: bool = False,
                 progress: bool = False) -> dict:
     """Run one episode with ``render_mode="rgb_array"``; every ``every``-th frame goes to ``out``.
     Returns the outcome and the pressure command of every control step (``command_kpa``).
+    ``trust=True`` loads a saved model that is not a shipped policy (model files are code).
     ``progress`` shows a bar over the episode's control steps (on stderr)."""
     from PIL import Image
     from tqdm import tqdm
 
-    import evertgym  # noqa: F401
-
     out = Path(out)
     if out.suffix.lower() != ".gif":
         raise ValueError(f"--out = {str(out)!r}: expected a .gif file")
-    policy = make_policy(policy_desc)
+    policy = make_policy(policy_desc, trust=trust)
     env = gym.make(env_id, render_mode="rgb_array", **getattr(policy, "env_kwargs", {}))
     obs, info = env.reset(seed=seed)
     policy.reset(env)
@@ -32,7 +32,7 @@ def rollout_gif(policy_desc: str, env_id: str, out: str | Path, seed: int = 0, e
     bar = tqdm(total=env.spec.max_episode_steps if env.spec else None, desc="rollout", unit="step", disable=not progress)
     while True:
         obs, _, term, trunc, info = env.step(policy.act(obs, info))
-        commands.append(round(env.unwrapped.command_pa / 1e3, 2))
+        commands.append(round(env.unwrapped.command_pa / 1e3, 2))  # type: ignore[attr-defined]
         k += 1
         bar.update(1)
         if k % every == 0 or term or trunc:
@@ -40,7 +40,7 @@ def rollout_gif(policy_desc: str, env_id: str, out: str | Path, seed: int = 0, e
         if term or trunc:
             break
     bar.close()
-    images = [Image.fromarray(f) for f in frames]
+    images = [Image.fromarray(np.asarray(f)) for f in frames]
     out.parent.mkdir(parents=True, exist_ok=True)
     fps = env.metadata.get("render_fps", 10) / every
     images[0].save(out, save_all=True, append_images=images[1:], duration=int(1000 / fps), loop=0)

@@ -56,6 +56,10 @@ def load_config(path: str | Path) -> dict:
     except (OSError, tomllib.TOMLDecodeError) as e:
         raise ValueError(f"{path}: cannot read the config: {e}") from None
     cfg.setdefault("name", path.stem)
+    # the run folder is <out>/<name>: a plain folder name keeps every output inside --out
+    if not (isinstance(cfg["name"], str) and re.fullmatch(r"[A-Za-z0-9_][A-Za-z0-9_.-]{0,99}", cfg["name"])):
+        raise ValueError(f"{path}: name = {cfg['name']!r} is not allowed: allowed a folder name of letters, digits, "
+                         "'_', '-', '.' (no path separators, not starting with '.'), at most 100 characters")
     for key, kind in (("env_id", str), ("algo", str), ("n_timesteps", int)):
         if not isinstance(cfg.get(key), kind):
             raise ValueError(f"{path}: {key} is required ({kind.__name__})")
@@ -70,7 +74,6 @@ def load_config(path: str | Path) -> dict:
 
 def _make_env_fn(env_id: str, env_kwargs: dict, rank: int, seed: int):
     def make():
-        import evertgym  # noqa: F401  (registers the envs in the worker)
         from stable_baselines3.common.monitor import Monitor
 
         env = Monitor(gym.make(env_id, **env_kwargs))
@@ -80,22 +83,44 @@ def _make_env_fn(env_id: str, env_kwargs: dict, rank: int, seed: int):
     return make
 
 
-def _latest_checkpoint(ckpt_dir: Path, normalize: bool) -> tuple[Path, int] | None:
-    """The newest complete checkpoint: a readable zip (and its VecNormalize statistics when
-    the run normalises); a crash while one was being written leaves it out."""
+def _checkpoints(ckpt_dir: Path, normalize: bool) -> list[tuple[Path, int]]:
+    """Complete-looking checkpoints, newest first: a zip whose archive reads back (and its
+    VecNormalize statistics when the run normalises)."""
     import zipfile
 
-    best = None
+    found = []
     for p in ckpt_dir.glob("model_*_steps.zip"):
         m = re.match(r"model_(\d+)_steps\.zip", p.name)
-        if not m or not zipfile.is_zipfile(p):
+        if not m:
+            continue
+        try:
+            with zipfile.ZipFile(p) as z:
+                if z.testzip() is not None:
+                    continue
+        except (zipfile.BadZipFile, OSError, EOFError):
             continue
         steps = int(m.group(1))
         if normalize and not (ckpt_dir / f"model_vecnormalize_{steps}_steps.pkl").exists():
             continue
-        if best is None or steps > best[1]:
-            best = (p, steps)
-    return best
+        found.append((p, steps))
+    return sorted(found, key=lambda c: -c[1])
+
+
+def _load_checkpoint(ckpt_dir: Path, normalize: bool, load):
+    """``load(zip, pkl_or_None)`` on the newest checkpoint that loads; a torn zip or pkl
+    (EOFError, UnpicklingError, a bad archive) falls back to the one before.  Only the
+    run's own ``checkpoints/`` folder is read: files the run wrote itself."""
+    import pickle
+    import zipfile
+
+    errors = []
+    for ckpt, steps in _checkpoints(ckpt_dir, normalize):
+        stats = ckpt_dir / f"model_vecnormalize_{steps}_steps.pkl" if normalize else None
+        try:
+            return load(ckpt, stats)
+        except (EOFError, pickle.UnpicklingError, zipfile.BadZipFile, ValueError, KeyError) as e:
+            errors.append(f"{ckpt.name}: {type(e).__name__}")
+    raise ValueError(f"--resume: no complete checkpoint in {ckpt_dir}" + (f" (torn: {', '.join(errors)})" if errors else ""))
 
 
 def train(config_path: str | Path, out_dir: str | Path = "runs", resume: bool = False, progress: bool = True) -> dict:
@@ -103,11 +128,16 @@ def train(config_path: str | Path, out_dir: str | Path = "runs", resume: bool = 
     from evertgym.agents.load import require_rl
 
     require_rl("training")
-    from stable_baselines3 import PPO, SAC
-    from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback
-    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecNormalize
-
     import torch
+    from stable_baselines3 import PPO, SAC
+    from stable_baselines3.common.base_class import BaseAlgorithm
+    from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback
+    from stable_baselines3.common.vec_env import (
+        DummyVecEnv,
+        SubprocVecEnv,
+        VecEnv,
+        VecNormalize,
+    )
 
     torch.set_num_threads(1)  # small MLPs: threads only fight the env workers for the cores
     cfg = load_config(config_path)
@@ -116,18 +146,16 @@ def train(config_path: str | Path, out_dir: str | Path = "runs", resume: bool = 
     ckpt_dir.mkdir(parents=True, exist_ok=True)
     n_envs, seed = cfg.get("n_envs", 1), cfg.get("seed", 0)
     fns = [_make_env_fn(cfg["env_id"], cfg.get("env_kwargs", {}), i, seed) for i in range(n_envs)]
-    venv = SubprocVecEnv(fns) if n_envs > 1 else DummyVecEnv(fns)
-    algo_cls = {"ppo": PPO, "sac": SAC}[cfg["algo"]]
-    latest = _latest_checkpoint(ckpt_dir, cfg.get("normalize", False)) if resume else None
-    if latest is not None:
-        ckpt, steps = latest
-        stats = ckpt_dir / f"model_vecnormalize_{steps}_steps.pkl"
-        if cfg.get("normalize", False):
-            venv = VecNormalize.load(str(stats), venv)
-        model = algo_cls.load(str(ckpt), env=venv, device="cpu", tensorboard_log=str(run_dir / "tb"))
+    venv: VecEnv = SubprocVecEnv(fns) if n_envs > 1 else DummyVecEnv(fns)
+    algos: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "sac": SAC}
+    algo_cls = algos[cfg["algo"]]
+    if resume:
+        def load(ckpt: Path, stats: Path | None) -> tuple[BaseAlgorithm, VecEnv]:
+            env = VecNormalize.load(str(stats), venv) if stats is not None else venv
+            return algo_cls.load(str(ckpt), env=env, device="cpu", tensorboard_log=str(run_dir / "tb")), env
+
+        model, venv = _load_checkpoint(ckpt_dir, cfg.get("normalize", False), load)
     else:
-        if resume:
-            raise ValueError(f"--resume: no checkpoint in {ckpt_dir}")
         if cfg.get("normalize", False):
             venv = VecNormalize(venv, norm_obs=True, norm_reward=True)
         hp = dict(cfg.get("hyperparams", {}))
@@ -149,14 +177,16 @@ def train(config_path: str | Path, out_dir: str | Path = "runs", resume: bool = 
     model.save(str(run_dir / "final"))
     # the observation options the policy was trained with travel with it
     (run_dir / "final_env.json").write_text(json.dumps({"env_id": cfg["env_id"], "env_kwargs": cfg.get("env_kwargs", {})}, indent=2))
-    if cfg.get("normalize", False):
+    if isinstance(venv, VecNormalize):
         venv.save(str(run_dir / "final_vecnormalize.pkl"))
     venv.close()
-    summary = {"num_timesteps": int(model.num_timesteps)}
+    summary: dict[str, Any] = {"num_timesteps": int(model.num_timesteps)}
     if cfg.get("eval_episodes", 0) > 0:
         from evertgym.agents.evaluate import evaluate
 
-        rows = evaluate([str(run_dir / "final.zip"), "operator"], cfg["env_id"], cfg["eval_episodes"], env_kwargs=cfg.get("env_kwargs", {}))
+        # the run wrote final.zip itself: trusted
+        rows = evaluate([str(run_dir / "final.zip"), "operator"], cfg["env_id"], cfg["eval_episodes"], env_kwargs=cfg.get("env_kwargs", {}),
+                        trust=True)
         summary["eval"] = rows
     (run_dir / "eval.json").write_text(json.dumps(summary, indent=2))
     return summary

@@ -12,15 +12,23 @@ from pathlib import Path
 
 from evertgym.agents.baselines import OperatorProtocol
 
-TUNED_PATH = Path(__file__).resolve().parents[2] / "agents" / "tuned_operator.json"
+
+def shipped_dir() -> Path:
+    """The shipped ``agents/`` folder: the checkout's, else the installed ``evertgym.shipped_agents``."""
+    repo = Path(__file__).resolve().parents[2] / "agents"
+    if repo.is_dir():
+        return repo
+    from importlib.resources import files
+
+    return Path(str(files("evertgym.shipped_agents")))
+
+
+TUNED_PATH = shipped_dir() / "tuned_operator.json"
 
 
 def load_tuned(path: str | Path | None = None) -> OperatorProtocol:
-    """The tuned operator protocol from ``path`` (default: the shipped ``tuned_operator.json``,
-    from the checkout or the installed wheel)."""
-    from evertgym.agents.load import shipped_dir
-
-    p = Path(path) if path else shipped_dir() / TUNED_PATH.name
+    """The operator protocol with the parameters of ``path`` (default: the shipped ``tuned_operator.json``)."""
+    p = Path(path) if path else TUNED_PATH
     if not p.exists():
         raise ValueError(f"tuned heuristic file {str(p)!r} does not exist: run scripts/tune_operator.py")
     data = json.loads(p.read_text())

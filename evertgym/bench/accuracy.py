@@ -101,7 +101,7 @@ class SweepSetting:
     overrides: Mapping[str, float] = field(default_factory=dict)
 
     def config(self) -> SimConfig:
-        return replace(SimConfig(), **self.overrides)
+        return replace(SimConfig(), **self.overrides)  # type: ignore[arg-type]  # int fields take ints
 
     def fidelity(self) -> dict[str, float]:
         """The values of :data:`FIDELITY_FIELDS` in this setting."""

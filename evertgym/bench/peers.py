@@ -53,19 +53,26 @@ Accuracy and timing
 
 from __future__ import annotations
 
+import functools
 import importlib.util
 import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from functools import cached_property
+from typing import Any
 
 import numpy as np
 
 from evertgym.design import TubeDesign
 from evertgym.model.params import load_params
 from evertgym.model.section import TubeSection
-from evertgym.model.stiffness import PAPER_DISPLACEMENT_M, PAPER_PRESSURE_PA, paper_prototype, virtual_tensile_test
+from evertgym.model.stiffness import (
+    PAPER_DISPLACEMENT_M,
+    PAPER_PRESSURE_PA,
+    paper_prototype,
+    virtual_tensile_test,
+)
 from evertgym.sim.config import SimConfig
 from evertgym.sim.discretize import joint_law
 from evertgym.sim.tensile import sim_tensile_test
@@ -239,7 +246,7 @@ def solve_evertgym(case: Case, segment_length_m: float, max_steps: int = MAX_STE
     other :class:`SimConfig` fields (``iterations``, ``damping``)."""
     default = SimConfig()  # the initial length only matters to growth; it may not be below a segment
     config = replace(default, segment_length_m=segment_length_m,
-                     initial_length_m=max(default.initial_length_m, segment_length_m), **setting)
+                     initial_length_m=max(default.initial_length_m, segment_length_m), **setting)  # type: ignore[arg-type]
     res = sim_tensile_test(case.design, case.displacement_m, case.pressure_pa, case.free_length_m, config=config,
                            max_steps=max_steps, tol=FORCE_TOL)
     return Relaxed(res.force_n, res.steps, res.converged)
@@ -376,17 +383,17 @@ class Engine:
     name: str
     module: str | None
     sweep: Sequence
-    label: Callable[[Case, object], str]
+    label: Callable[[Case, Any], str]
     solve: Callable[..., Relaxed]
-    sweep_setting: Callable[[Case, object], dict]
-    grid: Callable[[Case, object], list[dict]]
+    sweep_setting: Callable[[Case, Any], dict]
+    grid: Callable[[Case, Any], list[dict]]
 
     def available(self) -> bool:
         return self.module is None or importlib.util.find_spec(self.module) is not None
 
 
-def _product(**axes: Sequence[float]) -> list[dict]:
-    out: list[dict] = [{}]
+def _product(**axes: Sequence[float]) -> list[dict[str, Any]]:
+    out: list[dict[str, Any]] = [{}]
     for key, values in axes.items():
         out = [dict(d, **{key: v}) for d in out for v in values]
     return out
@@ -409,9 +416,11 @@ ENGINES = (
 
 
 def timed(solve: Callable[[], Relaxed], repeats: int = 1) -> tuple[Relaxed, float]:
-    """A solve's result and its best wall-clock time (s) over ``repeats``."""
-    best, res = math.inf, None
-    for _ in range(repeats):
+    """A solve's result and its best wall-clock time (s) over ``repeats`` (at least one run)."""
+    t0 = time.perf_counter()
+    res = solve()
+    best = time.perf_counter() - t0
+    for _ in range(repeats - 1):
         t0 = time.perf_counter()
         res = solve()
         best = min(best, time.perf_counter() - t0)
@@ -432,7 +441,7 @@ def choose_discretisation(errors: Sequence[tuple[float, bool]], budget: float = 
 
 def bench_engine(engine: Engine, case: Case, reference_n: float, repeats: int = REPEATS) -> dict:
     """Sweep, choose, tune and time one engine: ``{"row": ..., "sweep": [...]}`` (see :func:`compare`)."""
-    sweep = []
+    sweep: list[dict[str, Any]] = []
     for disc in engine.sweep:
         res = engine.solve(case, disc, **engine.sweep_setting(case, disc))  # the first also warms up
         sweep.append({"discretisation": engine.label(case, disc), "tip_force_error": force_error(res.force_n, reference_n),
@@ -446,7 +455,7 @@ def bench_engine(engine: Engine, case: Case, reference_n: float, repeats: int = 
     cap = TRIAL_STEPS_FACTOR * sweep[i]["steps"]  # a trial past this cannot be the fastest
     trials = []
     for setting in engine.grid(case, disc):
-        res, wall = timed(lambda: engine.solve(case, disc, max_steps=cap, **setting), repeats)
+        res, wall = timed(functools.partial(engine.solve, case, disc, max_steps=cap, **setting), repeats)
         if res.converged and abs(force_error(res.force_n, reference_n)) <= ERROR_BUDGET:
             trials.append((wall, setting, res))
     if not trials:  # no tuned setting converged within the cap: the sweep setting, uncapped
@@ -485,7 +494,7 @@ def compare(case: Case | None = None, engine_names: Sequence[str] | None = None,
         out = bench_engine(engine, case, ref["tip_force_n"], repeats)
         rows.append(out["row"])
         sweeps[engine.name] = out["sweep"]
-    wall = {r["engine"]: r.get("wall_s") for r in rows}
+    wall: dict[str, Any] = {r["engine"]: r.get("wall_s") for r in rows}
 
     def ratio(peer: str) -> float | None:
         a, b = wall.get(peer), wall.get("evertgym")

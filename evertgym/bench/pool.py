@@ -4,7 +4,7 @@ Each backend runs the same N CPU-bound trials into a fresh result store with
 :func:`evertgym.scoring.run_trials`.  By default a trial is a pure-Python busy loop
 calibrated to about ``trial_s`` seconds (no I/O, no threads, so it measures the backends
 and nothing else); with ``real`` each trial is the first trial of the paper's U-bend
-protocol (:func:`evertgym.scoring.paper.ubend_specs`), repeated.
+protocol (:func:`evertgym.experiments.paper.ubend_specs`), repeated.
 
 Per row: backend, workers, trials, wall time (s), trials per second, speed-up against the
 process pool with 1 worker, and the mean compute time of one trial where it ran (s): when
@@ -69,8 +69,8 @@ def calibrate_iterations(trial_s: float) -> int:
 
 def real_specs(n: int) -> tuple[list[TrialSpec], TrialFn]:
     """``n`` copies of the paper's first U-bend trial, and the real trial function."""
-    from evertgym.scoring.paper import ubend_specs
-    from evertgym.scoring.trial import run_trial
+    from evertgym.experiments.paper import ubend_specs
+    from evertgym.experiments.trial import run_trial
 
     first = ubend_specs()[0]
     return [dataclasses.replace(first, index=i) for i in range(n)], run_trial
@@ -84,7 +84,7 @@ def _timed(specs: list[TrialSpec], trial_fn: TrialFn, workdir: Path, name: str, 
         wall = time.perf_counter() - t0
     if len(records) != len(specs):
         raise RuntimeError(f"{name}: {len(records)} records for {len(specs)} trials")
-    return wall, sum(r.wall_s for r in records) / len(records)
+    return wall, sum(r.wall_s or 0.0 for r in records) / len(records)
 
 
 def bench_pool(trials: int = 16, trial_s: float = 0.3, real: bool = False, dask: bool = True) -> dict:

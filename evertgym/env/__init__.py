@@ -2,17 +2,22 @@
 
 Importing :mod:`evertgym` registers every preset of the repository's ``envs/`` folder, so
 ``gymnasium.make("evertgym/Colon-v0")`` works after ``import evertgym``; without the import,
-``gymnasium.make("evertgym:evertgym/Colon-v0")`` imports it for you.
+``gymnasium.make("evertgym:evertgym/Colon-v0")`` imports it for you.  Registration uses
+the entry-point string only: the simulator (pymunk, scipy) is imported when an env is made
+or when :class:`EversionEnv` is first looked up here.
 """
 
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING, Any
 
 import gymnasium
 
-from evertgym.env.eversion_env import EversionEnv
 from evertgym.env.presets import load_preset, preset_files
+
+if TYPE_CHECKING:
+    from evertgym.env.eversion_env import EversionEnv
 
 ENTRY_POINT = "evertgym.env.eversion_env:EversionEnv"
 
@@ -42,6 +47,15 @@ def register_envs() -> list[str]:
             gymnasium.register(id=env_id, entry_point=ENTRY_POINT, kwargs=kw, max_episode_steps=steps)
         ids.append(env_id)
     return ids
+
+
+def __getattr__(name: str) -> Any:
+    """``evertgym.env.EversionEnv``, imported on first use (it pulls in the simulator)."""
+    if name == "EversionEnv":
+        from evertgym.env.eversion_env import EversionEnv
+
+        return EversionEnv
+    raise AttributeError(f"module 'evertgym.env' has no attribute {name!r}")
 
 
 __all__ = ["EversionEnv", "preset_kwargs", "register_envs"]

@@ -26,7 +26,7 @@ def bench_env(env_id: str, steps: int = 500, seed: int = 0) -> dict:
     return {
         "env_id": env_id,
         "steps_per_s": done_steps / wall,
-        "sim_seconds_per_step": unwrapped.control_dt,
+        "sim_seconds_per_step": unwrapped.control_dt,  # type: ignore[attr-defined]
         "steps": done_steps,
         "wall_s": wall,
     }

@@ -10,12 +10,14 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from evertgym._validate import check_bool, check_int, check_pair, check_range
 from evertgym.design import Band, TubeDesign
 from evertgym.env.presets import sample_params
 from evertgym.render import FrameRenderer, Overlay
-from evertgym.scenes import SceneSpec, make_scene
+from evertgym.scenes import FAMILIES, Scene, SceneSpec, make_scene
 from evertgym.sim import EversionSim, SimConfig
 from evertgym.sim.growth import MAX_PRESSURE_PA
+from evertgym.sim.simulator import check_buildable
 
 _LOOKAHEAD_M = (0.02, 0.04, 0.06, 0.08, 0.10)
 _CLIP = 10.0  # upper bound of the unbounded ratios (tip force, lumen width)
@@ -117,9 +119,10 @@ class EversionEnv(gym.Env):
                                                   distributions (:mod:`evertgym.env.presets`);
                                                   seed ``"episode"`` draws one per episode
     design                900 mm, 40 mm, no band  :class:`TubeDesign` or a design-file dict (mm)
-    band_offset_mm        (0, 0)                  all bands shift by U(lo, hi) mm per episode
-    entry_offset_mm       (0, 0)                  base starts U(lo, hi) mm across the channel
-    control_hz            10                      control steps per second (0, 1000]
+    band_offset_mm        (0, 0)                  all bands shift by U(lo, hi) mm per episode, [-1000, 1000]
+    entry_offset_mm       (0, 0)                  base starts U(lo, hi) mm across the channel, [-100, 100]
+    control_hz            10                      control steps per second (0, 1000]; 1 / control_hz a
+                                                  whole number of simulator steps
     max_episode_s         30                      time limit (s), (0, 1e5]
     action_mode           "absolute"              "absolute" or "increment"
     max_increment_kpa     1                       increment mode's largest step (kPa), (0, 8]
@@ -127,11 +130,11 @@ class EversionEnv(gym.Env):
     tip_sensing           False                   append tip force and contact flag
     scene_ahead           False                   append the channel ahead (privileged)
     rupture_kpa           8                       rupture pressure (kPa), (0, 1000]
-    progress_weight       1                       reward weight, >= 0
-    pressure_weight       0.05                    reward weight, >= 0
-    contact_weight        0.02                    reward weight, >= 0
-    stall_weight          0.1                     reward weight, >= 0
-    success_weight        10                      reward weight, >= 0
+    progress_weight       1                       reward weight, [0, 1e6]
+    pressure_weight       0.05                    reward weight, [0, 1e6]
+    contact_weight        0.02                    reward weight, [0, 1e6]
+    stall_weight          0.1                     reward weight, [0, 1e6]
+    success_weight        10                      reward weight, [0, 1e6]
     sim_config            SimConfig()             a :class:`SimConfig` or a dict of its fields
     render_mode           None                    "rgb_array" or "human"
     ====================  ======================  ==============================================
@@ -169,30 +172,30 @@ class EversionEnv(gym.Env):
         sim_config: SimConfig | dict | None = None,
         render_mode: str | None = None,
     ):
-        self.scene_cfg = dict(scene or {"family": "ubend", "params": {}})
-        if "family" not in self.scene_cfg:
-            raise ValueError("scene must name a family, e.g. {'family': 'ubend', 'params': {}}")
-        self.design = design if isinstance(design, TubeDesign) else TubeDesign.from_dict(design or {"tube": {"length_mm": 900.0}})
-        lo, hi = (float(v) for v in band_offset_mm)
-        if not (math.isfinite(lo) and math.isfinite(hi) and lo <= hi):
-            raise ValueError(f"band_offset_mm = {band_offset_mm!r}: expected [lo, hi] with lo <= hi (mm)")
+        self.design = design if isinstance(design, TubeDesign) else TubeDesign.from_dict({"tube": {"length_mm": 900.0}} if design is None else design)
+        self.scene_cfg = dict(_check_scene({"family": "ubend", "params": {}} if scene is None else scene, self.design))
+        lo, hi = check_pair("band_offset_mm", band_offset_mm, -1e3, 1e3, "mm")
+        for off in (lo, hi):  # every band must stay on the body at either end of the range
+            try:
+                TubeDesign(self.design.diameter_m, self.design.wall_thickness_m, self.design.length_m,
+                           tuple(Band(b.position_m + off / 1e3, b.reduction, b.width_m) for b in self.design.bands))
+            except ValueError as e:
+                raise ValueError(f"band_offset_mm = {band_offset_mm!r} moves a band off the body or onto another ({e})") from None
         self.band_offset = (lo / 1e3, hi / 1e3)
-        elo, ehi = (float(v) for v in entry_offset_mm)
-        if not (math.isfinite(elo) and math.isfinite(ehi) and elo <= ehi):
-            raise ValueError(f"entry_offset_mm = {entry_offset_mm!r}: expected [lo, hi] with lo <= hi (mm)")
+        elo, ehi = check_pair("entry_offset_mm", entry_offset_mm, -100.0, 100.0, "mm")
         self.entry_offset = (elo / 1e3, ehi / 1e3)
-        _positive("control_hz", control_hz, 1000.0, "Hz")
-        _positive("max_episode_s", max_episode_s, 1e5, "s")
+        check_range("control_hz", control_hz, 0.0, 1000.0, lo_open=True, unit="Hz")
+        check_range("max_episode_s", max_episode_s, 0.0, 1e5, lo_open=True, unit="s")
         if action_mode not in ("absolute", "increment"):
             raise ValueError(f"action_mode = {action_mode!r}: allowed 'absolute' or 'increment'")
-        _positive("max_increment_kpa", max_increment_kpa, 8.0, "kPa")
-        if not (isinstance(history, int) and 0 <= history <= 100):
-            raise ValueError(f"history = {history!r} is out of range: allowed integers in [0, 100]")
-        _positive("rupture_kpa", rupture_kpa, 1e3, "kPa")
+        check_range("max_increment_kpa", max_increment_kpa, 0.0, 8.0, lo_open=True, unit="kPa")
+        check_int("history", history, 0, 100)
+        check_bool("tip_sensing", tip_sensing)
+        check_bool("scene_ahead", scene_ahead)
+        check_range("rupture_kpa", rupture_kpa, 0.0, 1e3, lo_open=True, unit="kPa")
         for name, w in (("progress_weight", progress_weight), ("pressure_weight", pressure_weight),
                         ("contact_weight", contact_weight), ("stall_weight", stall_weight), ("success_weight", success_weight)):
-            if not (math.isfinite(w) and w >= 0):
-                raise ValueError(f"{name} = {w!r} is out of range: allowed [0, inf)")
+            check_range(name, w, 0.0, 1e6)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode = {render_mode!r}: allowed {self.metadata['render_modes']} or None")
         self.control_dt = 1.0 / control_hz
@@ -204,7 +207,15 @@ class EversionEnv(gym.Env):
         self.scene_ahead = scene_ahead
         self.rupture_pa = rupture_kpa * 1e3
         self.w = dict(progress=progress_weight, pressure=pressure_weight, contact=contact_weight, stall=stall_weight, success=success_weight)
-        self.sim_config = sim_config if isinstance(sim_config, SimConfig) else SimConfig(**(sim_config or {}))
+        try:
+            self.sim_config = sim_config if isinstance(sim_config, SimConfig) else SimConfig(**(sim_config or {}))
+        except TypeError as e:  # an unknown field
+            raise ValueError(f"sim_config = {sim_config!r:.80}: {e}") from None
+        n_sub = round(self.control_dt / self.sim_config.dt_s)
+        if n_sub < 1 or abs(n_sub * self.sim_config.dt_s - self.control_dt) > 1e-9 * self.control_dt:
+            raise ValueError(f"control_hz = {control_hz!r} is not allowed: 1 / control_hz must be a whole number of simulator "
+                             f"steps (dt_s = {self.sim_config.dt_s:g} s), e.g. 10, 20, 50, 100 Hz")
+        check_buildable(self.design, self.sim_config)
         self.render_mode = render_mode
         self.metadata = dict(self.metadata, render_fps=int(round(control_hz)))
 
@@ -216,14 +227,28 @@ class EversionEnv(gym.Env):
             low, high = low + [-1.0, 0.0] * len(_LOOKAHEAD_M), high + [1.0, _CLIP] * len(_LOOKAHEAD_M)
         self._low, self._high = np.array(low, np.float32), np.array(high, np.float32)
         self.observation_space = spaces.Box(self._low, self._high, dtype=np.float32)
-        self.sim: EversionSim | None = None
-        self.scene = None
+        self._sim: EversionSim | None = None
+        self._scene: Scene | None = None
         self._fig = None
         self._renderer: FrameRenderer | None = None
         self._headless_warned = False
 
+    @property
+    def sim(self) -> EversionSim:
+        """The episode's simulator (after :meth:`reset`)."""
+        if self._sim is None:
+            raise RuntimeError("call reset() before using the simulator")
+        return self._sim
+
+    @property
+    def scene(self) -> Scene:
+        """The episode's scene (after :meth:`reset`)."""
+        if self._scene is None:
+            raise RuntimeError("call reset() before using the scene")
+        return self._scene
+
     # ---- episode --------------------------------------------------------------
-    def _draw_episode(self, scene_seed: int | None) -> tuple[Any, TubeDesign, np.ndarray]:
+    def _draw_episode(self, scene_seed: int | None) -> tuple[Scene, TubeDesign, np.ndarray]:
         rng = self.np_random
         params = sample_params(dict(self.scene_cfg.get("params", {})), rng)
         seed = self.scene_cfg.get("seed", "episode")
@@ -249,8 +274,8 @@ class EversionEnv(gym.Env):
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
         scene_seed = (options or {}).get("scene_seed")
-        self.scene, design, base = self._draw_episode(scene_seed)
-        self.sim = EversionSim(design, scene=self.scene, config=self.sim_config, base=tuple(base))
+        self._scene, design, base = self._draw_episode(scene_seed)
+        self._sim = EversionSim(design, scene=self._scene, config=self.sim_config, base=tuple(base))
         self.command_pa = 0.0
         self._s_tip = self._tip_arclength()
         self._hist = [self._sample()] * (self.history + 1)
@@ -263,10 +288,13 @@ class EversionEnv(gym.Env):
         return self._obs(), self._info()
 
     def step(self, action):
-        a = np.asarray(action, dtype=np.float64).reshape(-1)
+        raw = np.asarray(action)
+        if raw.dtype.kind not in "fiu":  # strings, complex, bools and objects are not pressures
+            raise ValueError(f"action = {action!r:.80}: expected one finite number in [-1, 1], got dtype {raw.dtype}")
+        a = raw.astype(np.float64).reshape(-1)
         if a.shape != (1,) or not np.all(np.isfinite(a)):
             raise ValueError(f"action = {action!r}: expected one finite number in [-1, 1] (NaN and inf are rejected)")
-        if self.sim is None:
+        if self._sim is None:
             raise RuntimeError("call reset() before step()")
         u = float(np.clip(a[0], -1.0, 1.0))
         if self.action_mode == "absolute":
@@ -323,7 +351,7 @@ class EversionEnv(gym.Env):
         sim = self.sim
         if self.tip_sensing:
             f_ref = MAX_PRESSURE_PA * math.pi * sim.design.radius_m**2
-            parts += [sim.tip_force / f_ref, 1.0 if sim._in_contact else 0.0]
+            parts += [sim.tip_force / f_ref, 1.0 if sim.in_contact else 0.0]
         if self.scene_ahead:
             scene = self.scene
             t = sim.tip_direction
@@ -370,7 +398,7 @@ class EversionEnv(gym.Env):
     # ---- rendering -----------------------------------------------------------------
     def render(self):
         """``rgb_array``: the frame (480, 480, 3) uint8; ``human``: shows it (None)."""
-        if self.render_mode is None or self.sim is None:
+        if self.render_mode is None or self._sim is None:
             return None
         sim = self.sim
         if self._renderer is None:
@@ -417,9 +445,40 @@ def _interactive_backend(name: str) -> bool:
     except ImportError:  # matplotlib < 3.9
         from matplotlib import rcsetup
 
-        return name in rcsetup.interactive_bk
+        return name in getattr(rcsetup, "interactive_bk", ())
 
 
-def _positive(name: str, value: float, hi: float, unit: str) -> None:
-    if not (isinstance(value, (int, float)) and math.isfinite(value) and 0 < value <= hi):
-        raise ValueError(f"{name} = {value!r} is out of range: allowed (0, {hi:g}] {unit}")
+def _check_scene(scene: Any, design: TubeDesign) -> dict:
+    """The scene config, checked now rather than at ``reset``: a mapping naming a known family
+    whose params are valid at both ends of every distribution, with a lumen the robot fits."""
+    if not isinstance(scene, dict) or "family" not in scene:
+        raise ValueError(f"scene = {scene!r:.80}: expected a mapping naming a family, e.g. {{'family': 'ubend', 'params': {{}}}}")
+    unknown = set(scene) - {"family", "params", "seed"}
+    if unknown:
+        raise ValueError(f"scene: unknown keys {sorted(unknown)}: allowed family, params, seed")
+    params = scene.get("params", {})
+    if params is None:
+        params = {}
+    if not isinstance(params, dict):
+        raise ValueError(f"scene.params = {params!r:.80} is not a mapping of parameter names to values")
+    seed = scene.get("seed", "episode")
+    if seed != "episode":
+        SceneSpec(scene["family"], {}, seed)  # a fixed seed: an integer >= 0 (or None)
+    for end in (0, -1):  # each distribution at its low, then its high end
+        fixed = {}
+        for key, value in params.items():
+            if isinstance(value, dict) and set(value) == {"uniform"}:
+                fixed[key] = check_pair(f"scene.params.{key}.uniform", value["uniform"], -math.inf, math.inf)[end]
+            elif isinstance(value, dict) and set(value) == {"choice"} and isinstance(value["choice"], list) and value["choice"]:
+                fixed[key] = value["choice"][end]
+            elif isinstance(value, dict):
+                raise ValueError(f"scene.params.{key} = {value!r}: a distribution is {{uniform = [lo, hi]}} or {{choice = [...]}}")
+            else:
+                fixed[key] = value
+        spec = SceneSpec(scene["family"], fixed, None)
+        lumen = FAMILIES[spec.family].resolve(dict(spec.params), np.random.default_rng(0)).get("lumen_mm")
+        narrowest = min(lumen) if isinstance(lumen, tuple) else lumen
+        if narrowest is not None and design.diameter_m * 1e3 > narrowest + 1e-6:
+            raise ValueError(f"design diameter_mm = {design.diameter_m * 1e3:g} is out of range: allowed up to the "
+                             f"scene's lumen_mm = {narrowest:g} mm (the robot must fit the channel)")
+    return scene

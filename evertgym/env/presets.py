@@ -19,7 +19,7 @@ paper's randomisation of band position against the bend).
 from __future__ import annotations
 
 import sys
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
 from typing import Any
 
@@ -42,7 +42,7 @@ def _preset_dir() -> Path:
     return Path(str(files("evertgym.presets")))
 
 
-@lru_cache(maxsize=None)
+@cache
 def preset_files() -> dict[str, Path]:
     """Registered env id -> preset file."""
     out = {}

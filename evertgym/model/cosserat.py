@@ -32,7 +32,10 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import root, root_scalar
 
-from evertgym.model.pressure import KINK_MOMENT_FRACTION, wrinkled_curvature_ratio_scalar
+from evertgym.model.pressure import (
+    KINK_MOMENT_FRACTION,
+    wrinkled_curvature_ratio_scalar,
+)
 from evertgym.model.section import TubeSection
 
 
@@ -134,7 +137,7 @@ class CosseratRod:
         cuts = [self.s_base] + [b for b in sec.breakpoints() if self.s_base < b < s_end] + [s_end]
         e, g_ratio = sec.e_eff_pa, sec.g_eff_pa / sec.e_eff_pa
         r0, t, p = sec.r0, sec.t, sec.pressure_pa
-        pieces = []
+        pieces: list[tuple[float, float, object]] = []
         for a, b in zip(cuts[:-1], cuts[1:]):
             if b - a <= 1e-12:
                 continue
@@ -198,7 +201,7 @@ class CosseratRod:
         def wound(s, z):  # a trial shape that winds past MAX_TURN is not the equilibrium sought
             return MAX_TURN - abs(z[2])
 
-        wound.terminal = True
+        wound.terminal = True  # type: ignore[attr-defined]  # solve_ivp's event flag
         z = np.zeros(3)
         out_s, out_z = [np.array([self.s_base])], [z[:, None]]
         for a, b, props in self._pieces(s_end):

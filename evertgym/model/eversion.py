@@ -93,7 +93,7 @@ class EversionThreshold:
         return self.p0_pa + self.a_pa * np.expm1(self.c * rho)
 
     @classmethod
-    def calibrated(cls) -> "EversionThreshold":
+    def calibrated(cls) -> EversionThreshold:
         """The law in the parameter file."""
         d = load_params().eversion_threshold
         return cls(d["p0_pa"], d["a_pa"], d["c"])
@@ -114,7 +114,8 @@ def fit_eversion_threshold() -> dict:
         "a_pa": float(res.x[1]),
         "c": float(res.x[2]),
         "law": "p_y(rho) = p0 + a (exp(c rho) - 1)",
-        "fitted_on": "measurements.json eversion_pressure_test (calibrate_on): medians less the vertical test's tail weight and speed margin, minimax in SD units",
+        "fitted_on": "measurements.json eversion_pressure_test (calibrate_on): medians less the vertical test's tail weight "
+                     "and speed margin, minimax in SD units",
         "growth_gain_m_per_s_per_pa": GROWTH_GAIN_M_PER_S_PER_PA,
         "residuals_in_sd": [float(x) for x in resid(res.x)],
         "threshold_at_0.6_pa": float(law(0.6)),

@@ -36,6 +36,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from evertgym._validate import check_range
+from evertgym.design import TubeDesign
+from evertgym.model.params import ModelParams, load_params
+
 #: Normalised moment M/M_c past which a section counts as kinked: its curvature is then
 #: about 27 kappa_w (a radius of curvature of the order of the tube radius) and it turns
 #: into a hinge whose moment barely rises.
@@ -137,6 +141,15 @@ class InflatedBeamLaw:
     wall_thickness_m: float = 0.05e-3
     poisson_ratio: float = 0.5
 
+    @classmethod
+    def for_design(cls, design: TubeDesign, params: ModelParams | None = None) -> InflatedBeamLaw:
+        """The law of ``design``'s tube: its own modulus and stiffening where it sets them, the
+        calibrated values of ``params`` (default: the parameter file) where it does not."""
+        p = params or load_params()
+        kappa = p.pressure_stiffening if design.pressure_stiffening is None else design.pressure_stiffening
+        e_m = p.membrane_modulus_pa if design.membrane_modulus_pa is None else design.membrane_modulus_pa
+        return cls(e_m, kappa, design.radius_m, design.wall_thickness_m, p.poisson_ratio)
+
     def __post_init__(self) -> None:
         _check_positive("membrane_modulus_pa", self.membrane_modulus_pa)
         if not (0.0 <= self.pressure_stiffening <= 10.0):
@@ -157,7 +170,7 @@ class InflatedBeamLaw:
         wall_thickness_m: float,
         pressure_stiffening: float = 1.0,
         poisson_ratio: float = 0.5,
-    ) -> "InflatedBeamLaw":
+    ) -> InflatedBeamLaw:
         """The law whose ``E_eff(at_pressure_pa)`` equals ``e_eff_pa`` for this section."""
         e_m = e_eff_pa - pressure_stiffening * at_pressure_pa * radius_m / (2.0 * wall_thickness_m)
         return cls(e_m, pressure_stiffening, radius_m, wall_thickness_m, poisson_ratio)
@@ -174,16 +187,15 @@ class InflatedBeamLaw:
         return self.effective_modulus(pressure_pa) / (2.0 * (1.0 + self.poisson_ratio))
 
 
-def wrinkling_moment(pressure_pa: float, radius_m: float | np.ndarray) -> float | np.ndarray:
+def wrinkling_moment(pressure_pa: float, radius_m: float | np.ndarray) -> np.ndarray:
     """Onset of wrinkling ``M_w = p pi r^3 / 2`` (N m) (Comer & Levy 1963)."""
     return 0.5 * max(float(pressure_pa), 0.0) * math.pi * np.asarray(radius_m) ** 3
 
 
-def collapse_moment(pressure_pa: float, radius_m: float | np.ndarray) -> float | np.ndarray:
+def collapse_moment(pressure_pa: float, radius_m: float | np.ndarray) -> np.ndarray:
     """Collapse (kink) moment ``M_c = p pi r^3`` (N m) (Stein & Hedgepeth 1961)."""
     return max(float(pressure_pa), 0.0) * math.pi * np.asarray(radius_m) ** 3
 
 
 def _check_positive(name: str, value: float) -> None:
-    if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-        raise ValueError(f"{name} = {value!r} is out of range: allowed (0, inf)")
+    check_range(name, value, 0.0, math.inf, lo_open=True, hi_open=True)

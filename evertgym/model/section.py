@@ -14,12 +14,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from evertgym.design import TubeDesign
 from evertgym.model.params import ModelParams, load_params
-from evertgym.model.pressure import collapse_moment, wrinkling_moment
+from evertgym.model.pressure import InflatedBeamLaw, collapse_moment, wrinkling_moment
 
 
 def alpha_of_reduction(rho: float | np.ndarray, params: ModelParams | None = None) -> float | np.ndarray:
@@ -61,7 +62,7 @@ class BandZone:
     def end_m(self) -> float:
         return self.centre_m + self.half_strip_m + self.taper_m
 
-    def shape(self, s: np.ndarray) -> np.ndarray:
+    def shape(self, s: float | np.ndarray) -> np.ndarray:
         """1 on the strip, falling linearly to 0 across the taper, 0 outside."""
         d = np.abs(np.asarray(s, dtype=float) - self.centre_m) - self.half_strip_m
         if self.taper_m <= 0:
@@ -85,7 +86,7 @@ class TubeSection:
         self.design = design
         self.params = params or load_params()
         self.pressure_pa = float(pressure_pa)
-        law = design.pressure_law()
+        law = InflatedBeamLaw.for_design(design)
         self.e_eff_pa = law.effective_modulus(pressure_pa)
         self.g_eff_pa = law.shear_modulus(pressure_pa)
         self.r0 = design.radius_m
@@ -114,14 +115,35 @@ class TubeSection:
             pts += [z.start_m, z.centre_m - z.half_strip_m, z.centre_m + z.half_strip_m, z.end_m]
         return sorted(pts)
 
-    def _reduction_and_alpha(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _zone_table(self) -> tuple[Any, ...]:
+        """Zones sorted by start as arrays, and the most zones any point can lie in (``depth``)."""
+        if not hasattr(self, "_table"):
+            zs = sorted(self.zones, key=lambda z: z.start_m)
+            start = np.array([z.start_m for z in zs])
+            end = np.array([z.end_m for z in zs])
+            # zones k-depth+1..k are the only ones that can cover a point in zone k's footprint
+            depth = int(np.max(np.arange(len(zs)) - np.searchsorted(np.maximum.accumulate(end), start, "right") + 1)) if zs else 0
+            cols = [np.array([getattr(z, f) for z in zs]) for f in ("centre_m", "half_strip_m", "taper_m", "reduction", "alpha")]
+            self._table = (start, *cols, depth)
+        return self._table
+
+    def _reduction_and_alpha(self, s: float | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         s = np.asarray(s, dtype=float)
         rho = np.zeros_like(s)
         alpha = np.ones_like(s)
-        for z in self.zones:
-            w = z.shape(s)
-            rho = np.maximum(rho, z.reduction * w)
-            alpha = np.minimum(alpha, 1.0 - (1.0 - z.alpha) * w)
+        if not self.zones:
+            return rho, alpha
+        start, centre, half, taper, red, alf, depth = self._zone_table()
+        last = np.searchsorted(start, s, side="right") - 1  # the last zone starting at or before s
+        for k in range(depth):  # vectorised over s: cost O(len(s) x depth), not O(len(s) x bands)
+            i = last - k
+            ok = i >= 0
+            j = np.where(ok, i, 0)
+            d = np.abs(s - centre[j]) - half[j]
+            safe = np.where(taper[j] > 0, taper[j], 1.0)
+            w = np.where(taper[j] > 0, np.clip(1.0 - d / safe, 0.0, 1.0), (d <= 0).astype(float)) * ok
+            rho = np.maximum(rho, red[j] * w)
+            alpha = np.minimum(alpha, 1.0 - (1.0 - alf[j]) * w)
         return rho, alpha
 
     def radius(self, s: float | np.ndarray) -> np.ndarray:

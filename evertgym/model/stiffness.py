@@ -9,7 +9,6 @@ modelled as free to rotate and to slide axially: the tester's force is purely la
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -115,50 +114,3 @@ def force_displacement_curve(
         forces.append(sol.force[1])
         guess = sol.force[1] * (1.0 + 1e-3)
     return np.array(forces)
-
-
-def rms(values: list[float]) -> float:
-    return math.sqrt(sum(v * v for v in values) / len(values)) if values else float("nan")
-
-
-def reproduce_stiffness(params: ModelParams | None = None) -> dict:
-    """Model stiffness index for every paper row; RMS relative errors by role.
-
-    Returns the ``--json`` structure of ``evertgym reproduce stiffness``.
-    """
-    params = params or load_params()
-    out_rows = []
-    cache: dict[tuple, float] = {}
-    for row in paper_rows():
-        key = (row.bands_from_tip_mm, row.reduction)
-        if key not in cache:
-            sol = virtual_tensile_test(paper_prototype(row.bands_from_tip_mm, row.reduction), params=params)
-            cache[key] = sol.force[1] / PAPER_DISPLACEMENT_M
-        k = cache[key]
-        out_rows.append(
-            {
-                "experiment": row.experiment,
-                "role": row.role,
-                "bands_from_tip_mm": list(row.bands_from_tip_mm),
-                "reduction": row.reduction,
-                "measured_n_per_m": row.measured_n_per_m,
-                "sd_n_per_m": row.sd_n_per_m,
-                "cosserat_n_per_m": k,
-                "cosserat_rel_error": k / row.measured_n_per_m - 1.0,
-            }
-        )
-    calib_keys = {(tuple(r["bands_from_tip_mm"]), r["reduction"]) for r in out_rows if r["role"] == "calibrate"}
-    unseen = [
-        r["cosserat_rel_error"]
-        for r in out_rows
-        if r["role"] == "predict" and (tuple(r["bands_from_tip_mm"]), r["reduction"]) not in calib_keys
-    ]
-    return {
-        "rows": out_rows,
-        "rms": {
-            "calibrate": rms([r["cosserat_rel_error"] for r in out_rows if r["role"] == "calibrate"]),
-            "predict": rms([r["cosserat_rel_error"] for r in out_rows if r["role"] == "predict"]),
-            "predict_unseen_configurations": rms(unseen),
-        },
-        "params_version": params.version,
-    }

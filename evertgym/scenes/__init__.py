@@ -11,7 +11,13 @@ it, entry, goal, walls) and builds its walls into a space (:meth:`Scene.build`).
 ``docs/scenes.md`` for the families and their parameters.
 """
 
-from evertgym.scenes.compliant import WALL_CATEGORY, WALL_COLLISION_TYPE, WallMechanics, WallNetwork, wall_shape_filter
+from evertgym.scenes.compliant import (
+    WALL_CATEGORY,
+    WALL_COLLISION_TYPE,
+    WallMechanics,
+    WallNetwork,
+    wall_shape_filter,
+)
 from evertgym.scenes.families import FAMILIES, PAPER_UBEND_RADII_MM, make_scene
 from evertgym.scenes.render import draw_scene, render_rgb
 from evertgym.scenes.scene import Scene, SceneHandles

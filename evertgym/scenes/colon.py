@@ -55,7 +55,8 @@ parameter leaves the others' draws for a seed unchanged.
 from __future__ import annotations
 
 import math
-from typing import Any, Mapping
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 

@@ -253,7 +253,9 @@ class WallNetwork:
 
         Spring stiffnesses are multiplied by ``stiffness_factor`` (see :meth:`Scene.build`).
         """
-        bodies, shapes, springs = [], [], []
+        bodies: list[pymunk.Body] = []
+        shapes: list[pymunk.Shape] = []
+        springs: list[pymunk.Constraint] = []
         for i in range(self.n_pieces):
             body = pymunk.Body(float(self.mass[i]), float(self.moment[i]))
             body.position = tuple(self.position[i])
@@ -296,12 +298,27 @@ def design_wall_network(mech: WallMechanics, s: np.ndarray, centre_normal: np.nd
     bounds[-1] = len(s) - 1
     radius = 0.5 * mech.thickness_m
     kn, kt, tension = mech.normal_n_per_m2, mech.tangential_n_per_m2, mech.tension_n
-    pos, nor, tan, ln, outline = [], [], [], [], []
-    sa, sb, pa, pb, kk, dd, rr = [], [], [], [], [], [], []
+    pos: list[np.ndarray] = []
+    nor: list[np.ndarray] = []
+    tan: list[np.ndarray] = []
+    ln: list[float] = []
+    outline: list[np.ndarray] = []
+    sa: list[int] = []
+    sb: list[int] = []
+    pa: list[np.ndarray] = []
+    pb: list[np.ndarray] = []
+    kk: list[float] = []
+    dd: list[np.ndarray] = []
+    rr: list[float] = []
 
     def spring(a: int, b: int, p_a, p_b, k: float, d=None, rest: float = 0.0) -> None:
-        sa.append(a), sb.append(b), pa.append(np.asarray(p_a, float)), pb.append(np.asarray(p_b, float))
-        kk.append(k), dd.append(np.full(2, np.nan) if d is None else np.asarray(d, float)), rr.append(rest)
+        sa.append(a)
+        sb.append(b)
+        pa.append(np.asarray(p_a, float))
+        pb.append(np.asarray(p_b, float))
+        kk.append(k)
+        dd.append(np.full(2, np.nan) if d is None else np.asarray(d, float))
+        rr.append(rest)
 
     for side, wall in enumerate(walls):
         sign = 1.0 if side == 0 else -1.0  # outward: left of travel for the left wall, right for the right
@@ -314,7 +331,10 @@ def design_wall_network(mech: WallMechanics, s: np.ndarray, centre_normal: np.nd
             t = np.array([n_out[1], -n_out[0]]) * sign
             length = s[b] - s[a]
             centre = 0.5 * (wall[a] + wall[b])  # between the normal springs: a uniform push cannot twist it
-            pos.append(centre), nor.append(n_out), tan.append(t), ln.append(length)
+            pos.append(centre)
+            nor.append(n_out)
+            tan.append(t)
+            ln.append(length)
             keep = a + simplify(shell[a:b + 1], 2e-5)
             outline.append(shell[keep] - centre)
             for end in (a, b):

@@ -18,12 +18,21 @@ Compliant families: ``colon`` and ``colon_random`` (:mod:`evertgym.scenes.colon`
 from __future__ import annotations
 
 import math
-from typing import Any, Mapping
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 
 from evertgym.scenes import colon
-from evertgym.scenes.geometry import Path, Piece, arc, sample_path, self_intersection, smoothstep
+from evertgym.scenes.geometry import (
+    Path,
+    Piece,
+    arc,
+    sample_path,
+    self_intersection,
+    smoothstep,
+)
+from evertgym.scenes.registry import FAMILIES, register
 from evertgym.scenes.scene import Channel, Scene
 from evertgym.scenes.spec import Family, Param, SceneError, SceneSpec, fmt_value
 
@@ -33,6 +42,8 @@ DEG = math.pi / 180.0
 RIGID_WALL_RADIUS = 1e-3
 #: Largest centreline sample spacing (m) of the rigid families.
 DS_MAX = 2e-3
+#: The shortest channel (m) a scene may have (the shortest straight pipe).
+MIN_CHANNEL_M = 0.01
 #: The paper's U-bend radii (mm), Fig. 4d.
 PAPER_UBEND_RADII_MM = (40.0, 37.5, 35.0, 32.5, 30.0, 27.5, 25.0, 22.5, 20.0)
 
@@ -190,7 +201,7 @@ def tortuous_geometry(p: Mapping[str, Any], rng: np.random.Generator) -> Channel
     )
 
 
-FAMILIES: dict[str, Family] = {
+_BUILT_IN: dict[str, Family] = {
     "straight": Family(
         "straight",
         {"length_mm": Param(600.0, lo=10.0, hi=5000.0, unit="mm", doc="pipe length"), "lumen_mm": _LUMEN},
@@ -258,6 +269,8 @@ FAMILIES: dict[str, Family] = {
     "colon": colon.family("colon", variant=False),
     "colon_random": colon.family("colon_random", variant=True),
 }
+for _family in _BUILT_IN.values():
+    register(_family)
 
 
 def make_scene(spec: SceneSpec | Mapping[str, Any]) -> Scene:
@@ -270,11 +283,16 @@ def make_scene(spec: SceneSpec | Mapping[str, Any]) -> Scene:
     if not isinstance(spec, SceneSpec):
         spec = SceneSpec.from_dict(spec)
     if spec.seed is None:
-        spec = SceneSpec(spec.family, dict(spec.params), int(np.random.SeedSequence().entropy % 2**63))
+        entropy = np.random.SeedSequence().entropy
+        assert isinstance(entropy, int)  # a fresh SeedSequence draws an int
+        spec = SceneSpec(spec.family, dict(spec.params), entropy % 2**63)
     fam = FAMILIES[spec.family]
     rng = np.random.default_rng(spec.seed)
     params = fam.resolve(dict(spec.params), rng)
     scene = Scene(spec, params, fam.geometry(params, rng))
+    if scene.length < MIN_CHANNEL_M:  # e.g. a vanishing bend with no straights
+        raise SceneError(f"{spec.family}: these parameters give a channel {scene.length:g} m long: allowed >= "
+                         f"{MIN_CHANNEL_M:g} m; lengthen lead_in_mm or lead_out_mm: {spec.to_dict()}")
     if scene.self_intersecting():
         raise SceneError(f"{spec.family}: these parameters give a self-intersecting channel: {spec.to_dict()}")
     robot = params.get("robot_diameter_mm")

@@ -46,7 +46,7 @@ def draw_scene(ax: Axes, scene: Scene, robot_xy: np.ndarray | None = None, robot
             if len(part) > 1:
                 ax.add_patch(Polygon(_wall_band(part, outward, thickness) * mm, closed=True,
                                      facecolor=colour, edgecolor="none"))
-    if moved:
+    if moved and handles is not None and handles.network is not None:
         net = handles.network
         segments = []
         for body, outline in zip(handles.bodies, net.outline):
@@ -57,7 +57,7 @@ def draw_scene(ax: Axes, scene: Scene, robot_xy: np.ndarray | None = None, robot
     ax.plot(*(scene.centreline * mm).T, ls="--", lw=0.6, color="#7a9cc0")
     e, d = scene.entry * mm, scene.entry_direction
     w0 = scene.lumen_width[0] * mm
-    ax.annotate("", xy=e + d * 0.6 * w0, xytext=e, arrowprops=dict(arrowstyle="->", color="#2b8a3e", lw=1.5))
+    ax.annotate("", xy=tuple(e + d * 0.6 * w0), xytext=tuple(e), arrowprops=dict(arrowstyle="->", color="#2b8a3e", lw=1.5))
     i = int(np.searchsorted(scene.arclength, scene.goal_arclength).clip(0, len(scene.arclength) - 1))
     n = np.array([-np.sin(scene.heading[i]), np.cos(scene.heading[i])])
     half = 0.5 * scene.lumen_at(scene.goal_arclength)

@@ -10,16 +10,22 @@ walls (:mod:`evertgym.scenes.compliant`) become dynamic bodies only in scenes th
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import cached_property
 from types import MappingProxyType
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 import pymunk
 from scipy.spatial import cKDTree
 
-from evertgym.scenes.compliant import WallMechanics, WallNetwork, design_wall_network, style_wall_shape
+from evertgym.scenes.compliant import (
+    WallMechanics,
+    WallNetwork,
+    design_wall_network,
+    style_wall_shape,
+)
 from evertgym.scenes.geometry import (
     Path,
     offset_walls,
@@ -75,7 +81,7 @@ class SceneHandles:
 
     def wall_displacement(self) -> float:
         """Largest displacement (m) of a compliant wall piece from its rest position (0 if rigid)."""
-        if not self.bodies:
+        if not self.bodies or self.network is None:
             return 0.0
         return float(np.max(np.hypot(*(self.positions() - self.network.position).T)))
 
@@ -239,7 +245,7 @@ class Scene:
 
     def wall_network(self) -> WallNetwork | None:
         """Design (not build) the compliant wall; ``None`` for rigid scenes."""
-        if not self.compliant:
+        if not self.compliant or self.mechanics is None:
             return None
         return design_wall_network(self.mechanics, self.arclength, self._path.normal, self.walls, self.compliant_start)
 
@@ -257,8 +263,8 @@ class Scene:
         if "wall_friction" in self.params:  # a family may declare its wall material's friction factor
             for seg in handles.shapes:
                 seg.friction = float(self.params["wall_friction"])
-        if self.compliant:
-            net = self.wall_network()
+        net = self.wall_network()
+        if net is not None:
             factor = 1.0 if dt is None else 1.0 / space.damping**dt
             handles.bodies, shapes, handles.springs = net.build(space, factor)
             handles.shapes += shapes

@@ -15,11 +15,14 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from types import MappingProxyType
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
+
+from evertgym.scenes.registry import FAMILIES
 
 
 class SceneError(ValueError):
@@ -70,7 +73,10 @@ class Param:
     def _scalar(self, name: str, value: Any, integer: bool, shown: Any) -> float | int:
         if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
             raise SceneError(f"{name} = {fmt_value(shown)} is not a number: allowed {self.allowed()}")
-        v = float(value)
+        try:
+            v = float(value)
+        except OverflowError:  # an integer beyond float range
+            v = math.inf
         if not math.isfinite(v):
             raise SceneError(f"{name} = {fmt_value(shown)} is not a finite number: allowed {self.allowed()}")
         if integer and v != round(v):
@@ -134,9 +140,7 @@ class SceneSpec:
     seed: int | None = None
 
     def __post_init__(self) -> None:
-        from evertgym.scenes.families import FAMILIES
-
-        if self.family not in FAMILIES:
+        if not isinstance(self.family, str) or self.family not in FAMILIES:
             raise SceneError(
                 f"unknown scene family {self.family!r}: allowed families are {', '.join(sorted(FAMILIES))}"
             )
@@ -169,7 +173,7 @@ class SceneSpec:
         }
 
     @classmethod
-    def from_dict(cls, d: Mapping[str, Any]) -> "SceneSpec":
+    def from_dict(cls, d: Mapping[str, Any]) -> SceneSpec:
         """Inverse of :meth:`to_dict`; ``params`` and ``seed`` may be omitted."""
         if not isinstance(d, Mapping) or "family" not in d:
             raise SceneError(f"a scene spec needs a 'family' key: got {d!r}")
@@ -178,9 +182,12 @@ class SceneSpec:
             raise SceneError(
                 f"unknown scene spec keys {sorted(unknown)}: allowed keys are family, params, seed"
             )
-        return cls(family=d["family"], params=dict(d.get("params") or {}), seed=d.get("seed"))
+        params = d.get("params") or {}
+        if not isinstance(params, Mapping):
+            raise SceneError(f"params = {params!r} is not a mapping of parameter names to values")
+        return cls(family=d["family"], params=dict(params), seed=d.get("seed"))
 
-    def with_params(self, **params: Any) -> "SceneSpec":
+    def with_params(self, **params: Any) -> SceneSpec:
         """A copy with some parameters replaced or added."""
         return SceneSpec(self.family, {**self.params, **params}, self.seed)
 

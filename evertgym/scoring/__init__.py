@@ -10,13 +10,18 @@
 - :func:`summarize` gives per-design success rates with Wilson intervals
   (:func:`wilson_interval`) and result medians.
 
-The physics trial function lives in ``evertgym.scoring.trial``; this package runs any trial
+The physics trial and the paper's experiments live in :mod:`evertgym.experiments`; this package runs any trial
 function and does not import it.
 """
 
 from evertgym.scoring.backends import BACKENDS, Outcome, TrialFn, available_cpus
 from evertgym.scoring.provenance import run_metadata
-from evertgym.scoring.runner import StaleResultsWarning, TrialFailure, TrialsFailed, run_trials
+from evertgym.scoring.runner import (
+    StaleResultsWarning,
+    TrialFailure,
+    TrialsFailed,
+    run_trials,
+)
 from evertgym.scoring.spec import (
     REQUIRED_RESULT_KEYS,
     TrialResult,

@@ -36,11 +36,12 @@ import threading
 import time
 import traceback
 from collections import deque
+from collections.abc import Callable, Generator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from contextlib import ExitStack
 from dataclasses import dataclass
-from typing import Any, Callable, Iterator, Sequence
+from typing import Any
 
 from evertgym.scoring.spec import TrialSpec
 
@@ -71,8 +72,10 @@ def call_trial(trial_fn: TrialFn, spec: TrialSpec) -> Outcome:
     return Outcome(result, None, None, time.perf_counter() - t0)
 
 
-#: A backend: ``(trial_fn, specs, workers, address) -> iterator of (spec, Outcome)`` as trials finish.
-Backend = Callable[[TrialFn, Sequence[TrialSpec], "int | None", "str | None"], Iterator[tuple[TrialSpec, Outcome]]]
+#: A backend: ``(trial_fn, specs, workers) -> iterator of (spec, Outcome)`` as trials finish.
+#: Where a backend needs more (the Dask scheduler's address), it is bound with
+#: :func:`functools.partial`, as :func:`evertgym.scoring.runner.run_trials` does.
+Backend = Callable[[TrialFn, Sequence[TrialSpec], "int | None"], Generator[tuple[TrialSpec, Outcome], None, None]]
 
 
 def _failed(exc: BaseException) -> Outcome:
@@ -88,9 +91,9 @@ def available_cpus() -> int:
 
 
 def serial_backend(
-    trial_fn: TrialFn, specs: Sequence[TrialSpec], workers: int | None, address: str | None
-) -> Iterator[tuple[TrialSpec, Outcome]]:
-    """Run the trials one after another in this process (``workers`` and ``address`` unused)."""
+    trial_fn: TrialFn, specs: Sequence[TrialSpec], workers: int | None = None
+) -> Generator[tuple[TrialSpec, Outcome], None, None]:
+    """Run the trials one after another in this process (``workers`` unused)."""
     for spec in specs:
         yield spec, call_trial(trial_fn, spec)
 
@@ -112,7 +115,10 @@ def _exit_with_parent() -> None:
     idle and holding memory.  ``parent_process().sentinel`` becomes ready when the runner's
     end of the worker's pipe closes, i.e. when the runner is gone.
     """
-    sentinel = multiprocessing.parent_process().sentinel
+    parent = multiprocessing.parent_process()
+    if parent is None:  # not a child process: nothing to watch
+        return
+    sentinel = parent.sentinel
 
     def watch() -> None:
         multiprocessing.connection.wait([sentinel])
@@ -122,9 +128,9 @@ def _exit_with_parent() -> None:
 
 
 def process_backend(
-    trial_fn: TrialFn, specs: Sequence[TrialSpec], workers: int | None, address: str | None
-) -> Iterator[tuple[TrialSpec, Outcome]]:
-    """Run the trials in a local pool of ``workers`` processes (``address`` unused).
+    trial_fn: TrialFn, specs: Sequence[TrialSpec], workers: int | None = None
+) -> Generator[tuple[TrialSpec, Outcome], None, None]:
+    """Run the trials in a local pool of ``workers`` processes (default: the CPUs available).
 
     At most ``workers`` trials are submitted at a time, so when a worker dies the suspects
     are exactly the trials in flight.  The pool is then restarted and each suspect rerun
@@ -140,27 +146,33 @@ def process_backend(
         ) from None
     ctx = _mp_context(trial_fn)
     workers = workers or available_cpus()
-    queue, suspects = deque(specs), deque()
+    queue: deque[TrialSpec] = deque(specs)
+    suspects: deque[TrialSpec] = deque()
     running: dict[Future, tuple[TrialSpec, bool]] = {}  # future -> (spec, ran alone)
     pool = None
     try:
         while queue or suspects or running:
             if pool is None:
                 pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_exit_with_parent)
-            if suspects and not running:
-                spec = suspects.popleft()
-                running[pool.submit(call_trial, trial_fn, spec)] = (spec, True)
-            while not suspects and queue and len(running) < workers:
-                spec = queue.popleft()
-                running[pool.submit(call_trial, trial_fn, spec)] = (spec, False)
-            done, _ = wait(running, return_when=FIRST_COMPLETED)
             broken = False
+            try:
+                if suspects and not running:
+                    fut = pool.submit(call_trial, trial_fn, suspects[0])  # popped once submitted
+                    running[fut] = (suspects.popleft(), True)
+                while not suspects and queue and len(running) < workers:
+                    fut = pool.submit(call_trial, trial_fn, queue[0])
+                    running[fut] = (queue.popleft(), False)
+            except (BrokenProcessPool, OSError):
+                # a worker died between the last wait and this submit: the spec stays queued,
+                # the trials in flight are collected below and the pool restarts
+                broken = True
+            done, _ = wait(running, return_when=FIRST_COMPLETED)
             while done:
                 for fut in done:
                     spec, alone = running.pop(fut)
                     try:
                         outcome = fut.result()
-                    except BrokenProcessPool as exc:
+                    except BrokenProcessPool:
                         broken = True
                         if not alone:
                             suspects.append(spec)
@@ -181,15 +193,18 @@ def process_backend(
 
 
 def dask_backend(
-    trial_fn: TrialFn, specs: Sequence[TrialSpec], workers: int | None, address: str | None
-) -> Iterator[tuple[TrialSpec, Outcome]]:
+    trial_fn: TrialFn, specs: Sequence[TrialSpec], workers: int | None = None, address: str | None = None
+) -> Generator[tuple[TrialSpec, Outcome], None, None]:
     """Run the trials on the Dask scheduler at ``address``, else on a local cluster of ``workers``."""
     from dask.distributed import Client, LocalCluster
     from dask.distributed import as_completed as dask_as_completed
 
     with ExitStack() as stack:
         if address is not None:
-            client = stack.enter_context(Client(address))
+            try:  # an unreachable scheduler fails in 10 s, not 30; anything else there is not a scheduler
+                client = stack.enter_context(Client(address, timeout="10s"))
+            except Exception as e:  # noqa: BLE001 - distributed raises OSError, TimeoutError, even MemoryError
+                raise ConnectionError(f"address = {address!r}: no Dask scheduler answered there ({type(e).__name__})") from None
         else:
             cluster = stack.enter_context(
                 LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None)

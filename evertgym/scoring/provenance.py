@@ -18,6 +18,12 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
+from evertgym._version import __version__
+from evertgym.env.presets import preset_files
+
+#: The installed ``evertgym`` package folder.
+_PACKAGE_DIR = Path(__file__).resolve().parents[1]
+
 #: Packages whose versions are recorded, when installed.
 VERSIONED_PACKAGES = ("evertgym", "numpy", "scipy", "pymunk", "dask", "distributed")
 
@@ -32,17 +38,13 @@ def _version(name: str) -> str | None:
         return metadata.version(name)
     except metadata.PackageNotFoundError:
         if name == "evertgym":  # a source checkout on PYTHONPATH, not installed
-            import evertgym
-
-            return evertgym.__version__
+            return __version__
         return None
 
 
 def _git_revision() -> dict[str, Any] | None:
     """The git commit of the evertgym checkout and whether it has uncommitted changes, if any."""
-    import evertgym
-
-    root = Path(evertgym.__file__).resolve().parent.parent
+    root = _PACKAGE_DIR.parent
     try:
         head = subprocess.run(
             ["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True, text=True, timeout=10, check=True
@@ -60,10 +62,7 @@ def _git_revision() -> dict[str, Any] | None:
 def code_fingerprint() -> str:
     """SHA-256 (first 16 hex digits) of the installed evertgym's Python sources, data files
     and env presets: two runs with the same fingerprint ran the same simulator."""
-    import evertgym
-    from evertgym.env.presets import preset_files
-
-    pkg = Path(evertgym.__file__).resolve().parent
+    pkg = _PACKAGE_DIR
     files = sorted(p for p in pkg.rglob("*") if p.is_file() and p.suffix in (".py", ".json", ".toml"))
     files += sorted(Path(p).resolve() for p in preset_files().values())
     digest = hashlib.sha256()

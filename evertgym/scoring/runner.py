@@ -9,14 +9,15 @@ the end (or, with ``on_error="warn"``, a warning) listing every failure.
 
 from __future__ import annotations
 
+import functools
 import warnings
+from collections.abc import Iterable
 from contextlib import closing
 from dataclasses import dataclass
-from typing import Iterable
 
 from tqdm import tqdm
 
-from evertgym.scoring.backends import BACKENDS, TrialFn, available_cpus
+from evertgym.scoring.backends import BACKENDS, TrialFn, available_cpus, dask_backend
 from evertgym.scoring.provenance import code_fingerprint, run_metadata
 from evertgym.scoring.spec import TrialResultError, TrialSpec
 from evertgym.scoring.store import ResultStore, TrialRecord
@@ -134,7 +135,8 @@ def run_trials(
             total=len(specs), initial=len(specs) - len(todo), unit="trial", desc=f"scoring ({backend})",
             disable=not progress, dynamic_ncols=True,
         )
-        with bar, closing(BACKENDS[backend](trial_fn, todo, n_workers, address)) as outcomes:
+        run = functools.partial(dask_backend, address=address) if backend == "dask" else BACKENDS[backend]
+        with bar, closing(run(trial_fn, todo, n_workers)) as outcomes:
             for spec, out in outcomes:
                 if out.error is None:
                     try:

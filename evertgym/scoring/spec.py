@@ -17,9 +17,10 @@ import hashlib
 import json
 import math
 import numbers
+from collections.abc import Mapping
 from dataclasses import dataclass, fields
 from functools import cached_property
-from typing import Any, Mapping
+from typing import Any
 
 #: A trial's result: :data:`REQUIRED_RESULT_KEYS` plus free extra keys (JSON-able values).
 TrialResult = dict[str, Any]
@@ -143,7 +144,7 @@ class TrialSpec:
         return {f.name: getattr(self, f.name) for f in fields(self)}
 
     @classmethod
-    def from_dict(cls, d: Mapping[str, Any]) -> "TrialSpec":
+    def from_dict(cls, d: Mapping[str, Any]) -> TrialSpec:
         """A spec from :meth:`to_dict` output; every field is required, no other key allowed."""
         names = {f.name for f in fields(cls)}
         if not isinstance(d, Mapping) or set(d) != names:

@@ -14,16 +14,21 @@ while a run writes.
 Columns of table ``trials``: ``key`` (primary key), ``design_name``, ``group_name``, ``seed``,
 ``trial_index`` and ``success`` (copies for SQL filtering), ``spec_json``, ``result_json``,
 ``meta_json`` (the run's command, versions, platform: :func:`run_metadata`), ``wall_s``
-(the trial's own compute time in s) and ``finished_at`` (ISO 8601 UTC).
+(the trial's own compute time in s), ``finished_at`` (ISO 8601 UTC) and ``checksum`` (SHA-256
+of ``spec_json`` and ``result_json``: :func:`row_checksum`; a row whose checksum does not
+match is reported by :meth:`ResultStore.results` with its row number, so an edited result
+is never used; rows from before the column have none and are not checked).
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import sqlite3
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Iterable, Iterator, Mapping
+from typing import Any
 
 from evertgym.scoring.provenance import run_metadata, utc_now
 from evertgym.scoring.spec import TrialResult, TrialSpec, canonical_json, check_result
@@ -87,18 +92,25 @@ class ResultStore:
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         # isolation_level=None: autocommit, each statement below is its own transaction
-        self._db = sqlite3.connect(self.path, timeout=60.0, isolation_level=None)
-        self._db.execute("PRAGMA journal_mode=WAL")
-        self._db.execute("PRAGMA synchronous=FULL")
-        version = self._db.execute("PRAGMA user_version").fetchone()[0]
-        if version not in (0, SCHEMA_VERSION):
+        try:
+            self._db = sqlite3.connect(self.path, timeout=60.0, isolation_level=None)
+            self._db.execute("PRAGMA journal_mode=WAL")
+            self._db.execute("PRAGMA synchronous=FULL")
+            version = self._db.execute("PRAGMA user_version").fetchone()[0]
+            tables = {t for (t,) in self._db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+        except sqlite3.DatabaseError as e:
+            raise ValueError(f"{self.path}: not a result store ({e}); pass a new --db path or move the file away") from None
+        if version not in (0, SCHEMA_VERSION) or (tables and "trials" not in tables):
             self._db.close()
-            raise ValueError(f"{self.path}: store schema version {version} is not supported: allowed {SCHEMA_VERSION}")
+            raise ValueError(f"{self.path}: not an evertgym result store (schema version {version}, tables "
+                             f"{sorted(tables)}): allowed version {SCHEMA_VERSION} with table 'trials'; pass a new --db path")
         self._db.execute(_SCHEMA)
+        if "checksum" not in {c[1] for c in self._db.execute("PRAGMA table_info(trials)")}:
+            self._db.execute("ALTER TABLE trials ADD COLUMN checksum TEXT")
         self._db.execute(f"PRAGMA user_version={SCHEMA_VERSION}")
         self._default_meta: dict[str, Any] | None = None
 
-    def __enter__(self) -> "ResultStore":
+    def __enter__(self) -> ResultStore:
         return self
 
     def __exit__(self, *exc: object) -> None:
@@ -148,7 +160,7 @@ class ResultStore:
             meta = self._default_meta
         cur = self._db.execute(
             "INSERT OR IGNORE INTO trials (key, design_name, group_name, seed, trial_index, success,"
-            " spec_json, result_json, meta_json, wall_s, finished_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+            " spec_json, result_json, meta_json, wall_s, finished_at, checksum) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
             (
                 spec.key,
                 spec.design_name,
@@ -161,6 +173,7 @@ class ResultStore:
                 canonical_json(dict(meta)),
                 None if wall_s is None else float(wall_s),
                 utc_now(),
+                row_checksum(canonical_json(spec.to_dict()), canonical_json(plain)),
             ),
         )
         return cur.rowcount == 1
@@ -180,7 +193,7 @@ class ResultStore:
             values = [int(v) if name == "success" else v for v in values]
             clauses.append(f"{FILTER_COLUMNS[name]} IN ({', '.join('?' * len(values))})")
             params.extend(values)
-        base = "SELECT rowid, spec_json, result_json, meta_json, wall_s, finished_at FROM trials"
+        base = "SELECT rowid, spec_json, result_json, meta_json, wall_s, finished_at, checksum FROM trials"
         if keys is None:
             rows = list(self._query(base, clauses, params))
         else:
@@ -191,11 +204,20 @@ class ResultStore:
                 in_keys = f"key IN ({', '.join('?' * len(chunk))})"
                 rows.extend(self._query(base, [in_keys, *clauses], [*chunk, *params]))
             rows.sort(key=lambda row: row[0])
+        for rowid, s, r, _, _, _, c in rows:
+            if c is not None and c != row_checksum(s, r):
+                raise ValueError(f"{self.path}: row {rowid} fails its checksum: its spec or result was edited after it "
+                                 f"was stored; delete the row (DELETE FROM trials WHERE rowid = {rowid}) to rerun that trial")
         return [
             TrialRecord(TrialSpec.from_dict(json.loads(s)), json.loads(r), json.loads(m), w, t)
-            for _, s, r, m, w, t in rows
+            for _, s, r, m, w, t, _ in rows
         ]
 
     def _query(self, base: str, clauses: list[str], params: list[Any]) -> Iterator[tuple]:
         sql = base + (" WHERE " + " AND ".join(clauses) if clauses else "") + " ORDER BY rowid"
         return self._db.execute(sql, params)
+
+
+def row_checksum(spec_json: str, result_json: str) -> str:
+    """SHA-256 (hex) of a stored row's ``spec_json`` and ``result_json``."""
+    return hashlib.sha256(spec_json.encode() + b"\n" + result_json.encode()).hexdigest()

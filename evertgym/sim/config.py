@@ -2,17 +2,10 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import asdict, dataclass
 
+from evertgym._validate import check_range as _check
 from evertgym.model.eversion import GROWTH_GAIN_M_PER_S_PER_PA, MAX_GROWTH_SPEED_M_PER_S
-
-
-def _check(name: str, value: float, lo: float, hi: float, *, lo_open: bool = False) -> None:
-    ok = isinstance(value, (int, float)) and math.isfinite(value) and (value > lo if lo_open else value >= lo) and value <= hi
-    if not ok:
-        lb = "(" if lo_open else "["
-        raise ValueError(f"{name} = {value!r} is out of range: allowed {lb}{lo:g}, {hi:g}]")
 
 
 @dataclass(frozen=True)

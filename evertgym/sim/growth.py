@@ -37,7 +37,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from evertgym.model.eversion import GROWTH_GAIN_M_PER_S_PER_PA, MAX_GROWTH_SPEED_M_PER_S, EversionThreshold
+from evertgym.model.eversion import (
+    GROWTH_GAIN_M_PER_S_PER_PA,
+    MAX_GROWTH_SPEED_M_PER_S,
+    EversionThreshold,
+)
 
 #: The seal ruptures above this (paper: 8 kPa).
 MAX_PRESSURE_PA = 8000.0

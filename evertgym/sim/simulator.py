@@ -27,14 +27,15 @@ import numpy as np
 import pymunk
 
 from evertgym.design import TubeDesign
+from evertgym.limits import MAX_EVENTS
+from evertgym.model.eversion import EversionThreshold, tail_weight_pressure
 from evertgym.model.params import ModelParams, load_params
-from evertgym.model.pressure import KINK_MOMENT_FRACTION
+from evertgym.model.pressure import KINK_MOMENT_FRACTION, InflatedBeamLaw
 from evertgym.model.section import TubeSection
 from evertgym.sim.config import SimConfig
 from evertgym.sim.discretize import hat_compliance, joint_moment, segment_inertia
-from evertgym.sim.links import Link, make_link
-from evertgym.model.eversion import EversionThreshold, tail_weight_pressure
 from evertgym.sim.growth import GrowthLaw, PressureRegulator
+from evertgym.sim.links import Link, make_link
 
 ROBOT_COLLISION_TYPE = 1
 _ROBOT_GROUP = 1
@@ -87,6 +88,7 @@ class EversionSim:
     ):
         self.design = design
         self.cfg = cfg = config or SimConfig()
+        check_buildable(design, cfg, scene)
         self.params = params or load_params()
         self.space = space = pymunk.Space()
         space.iterations = cfg.iterations
@@ -116,7 +118,7 @@ class EversionSim:
         self._cs_ref = hat_compliance(self._ref_section, self.nodes, design.length_m, shear=True)
         r_cell = np.array([float(np.min(self._ref_section.radius(np.linspace(max(s - ds / 2, 0), s + ds / 2, 17)))) for s in self.nodes])
         self._r3 = r_cell**3
-        self._law = design.pressure_law()
+        self._law = InflatedBeamLaw.for_design(design)
         seg_s = np.linspace(0, design.length_m, int(design.length_m / (ds / 8)) + 2)
         self._radius_fine = (seg_s, self._ref_section.radius(seg_s))
 
@@ -136,7 +138,9 @@ class EversionSim:
         self._rest_since: list[float] = []
         self._last_pose: dict[int, tuple[float, float, float]] = {}
         self._frozen_turning = 0.0
+        #: the first MAX_EVENTS events; later ones are only counted in ``event_counts``
         self.events: list[SimEvent] = []
+        self.event_counts: dict[str, int] = {}
         self._kinked: set[int] = set()
         self._in_contact = False
         self._frontal = False
@@ -295,10 +299,18 @@ class EversionSim:
 
     @property
     def kinked_joints(self) -> list[int]:
+        """Joints past the kink fraction of their collapse moment, base first."""
         return sorted(self._kinked)
 
+    @property
+    def in_contact(self) -> bool:
+        """Whether the tip segment touched a wall in the last step."""
+        return self._in_contact
+
     def _event(self, kind: str, **detail) -> None:
-        self.events.append(SimEvent(round(self.t, 6), kind, round(self.length * 1e3, 3), detail))
+        self.event_counts[kind] = self.event_counts.get(kind, 0) + 1
+        if len(self.events) < MAX_EVENTS:  # bounded: a long cycling run keeps its memory flat
+            self.events.append(SimEvent(round(self.t, 6), kind, round(self.length * 1e3, 3), detail))
 
     def _tip_reaction(self) -> None:
         """Wall force on the tip body (N), its component against growth, and whether any
@@ -553,3 +565,17 @@ class EversionSim:
     def radii(self) -> np.ndarray:
         """Collision radius of each segment (m)."""
         return np.array([sh.radius for sh in self.shapes])
+
+
+def check_buildable(design: TubeDesign, cfg: SimConfig, scene=None) -> None:
+    """Raise ``ValueError`` naming the field unless the simulator can build ``design`` with
+    ``cfg`` in ``scene``: the body must hold the initial chain, and the
+    robot's diameter may not exceed the scene's narrowest lumen."""
+    need = cfg.initial_length_m
+    if design.length_m < need - 1e-12:
+        raise ValueError(f"length_m = {design.length_m:g} is out of range: allowed >= {need:g} m "
+                         "(the simulator's initial_length_m)")
+    lumen = getattr(scene, "lumen_width", None)
+    if lumen is not None and len(lumen) and design.diameter_m > float(np.min(lumen)) + 1e-9:
+        raise ValueError(f"diameter_m = {design.diameter_m:g} is out of range: allowed up to the scene's narrowest "
+                         f"lumen, {float(np.min(lumen)):g} m (the robot must fit the channel)")

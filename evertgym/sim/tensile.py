@@ -115,20 +115,3 @@ def sim_tensile_test(
         converged=converged,
         kinked_joints=int(np.sum(law.kinked(law.moment(phi)))),
     )
-
-
-def add_sim_columns(result: dict, displacement_m: float = 0.02, config: SimConfig | None = None) -> dict:
-    """Add ``sim_force_n``, ``sim_n_per_m`` and ``sim_rel_error_vs_cosserat`` to each row
-    of :func:`evertgym.model.stiffness.reproduce_stiffness`'s result (in place)."""
-    from evertgym.model.stiffness import paper_prototype
-
-    cache: dict[tuple, TensileResult] = {}
-    for row in result["rows"]:
-        key = (tuple(row["bands_from_tip_mm"]), row["reduction"])
-        if key not in cache:
-            cache[key] = sim_tensile_test(paper_prototype(*key), displacement_m, config=config)
-        res = cache[key]
-        row["sim_force_n"] = res.force_n
-        row["sim_n_per_m"] = res.n_per_m
-        row["sim_rel_error_vs_cosserat"] = res.n_per_m / row["cosserat_n_per_m"] - 1.0
-    return result

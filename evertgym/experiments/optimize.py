@@ -12,11 +12,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from evertgym.experiments.sweep import sweep_specs
+from evertgym.experiments.trial import run_trial
 from evertgym.scoring.runner import run_trials
 from evertgym.scoring.stats import summarize
 from evertgym.scoring.store import ResultStore
-from evertgym.scoring.sweep import sweep_specs
-from evertgym.scoring.trial import run_trial
 
 HELD_OUT_FIRST_SEED = 10_000
 

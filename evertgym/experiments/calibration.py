@@ -22,20 +22,25 @@ import dataclasses
 import datetime as _dt
 import json
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 from scipy.optimize import least_squares
 
+from evertgym.experiments.stiffness import reproduce_stiffness
 from evertgym.model.eversion import fit_eversion_threshold
-from evertgym.model.params import PARAMS_PATH, ModelParams, load_params, params_from_dict
+from evertgym.model.params import (
+    PARAMS_PATH,
+    ModelParams,
+    load_params,
+    params_from_dict,
+)
 from evertgym.model.stiffness import (
     PAPER_DISPLACEMENT_M,
     StiffnessRow,
     paper_prototype,
     paper_rows,
-    reproduce_stiffness,
     virtual_tensile_test,
 )
 
@@ -52,7 +57,7 @@ class Structure:
     x0: tuple[float, ...]
     lower: tuple[float, ...]
     upper: tuple[float, ...]
-    to_params: Callable[[ModelParams, np.ndarray], ModelParams]
+    to_params: Callable[..., ModelParams]  # (base params, fitted vector) -> params
 
 
 def _with(base: ModelParams, L: float, taper: float, expo: float, alpha: tuple[float, ...]) -> ModelParams:

@@ -59,7 +59,7 @@ def plot_summary(rows: list[dict], path: str | Path, title: str | None = None) -
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from evertgym.plots import save_figure
+    from evertgym.experiments.plots import save_figure
 
     fig, ax = plt.subplots(figsize=(max(4.0, 1.2 * len(rows)), 3.6))
     x = range(len(rows))

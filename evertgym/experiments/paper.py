@@ -31,7 +31,15 @@ def ubend_design(reduction: float) -> dict:
     return {"tube": {"diameter_mm": 40.0, "wall_thickness_mm": 0.05, "length_mm": 900.0}, "bands": bands}
 
 
-def ubend_specs(trials: int = 12, radii=UBEND_RADII_MM, reductions=UBEND_REDUCTIONS, pressure_kpa: float = 3.0) -> list[TrialSpec]:
+def _episode(episode: dict, sim: dict | None) -> dict:
+    """The trial's ``episode`` table, with ``"sim"`` (SimConfig overrides) only when given: specs
+    without overrides keep their keys, so existing stores stay valid."""
+    return {**episode, "sim": dict(sim)} if sim else episode
+
+
+def ubend_specs(trials: int = 12, radii=UBEND_RADII_MM, reductions=UBEND_REDUCTIONS, pressure_kpa: float = 3.0,
+                sim: dict | None = None) -> list[TrialSpec]:
+    """The U-bend trials; ``sim`` overrides :class:`~evertgym.sim.config.SimConfig` fields in every one."""
     specs = []
     for red in reductions:
         for r in radii:
@@ -44,7 +52,7 @@ def ubend_specs(trials: int = 12, radii=UBEND_RADII_MM, reductions=UBEND_REDUCTI
                             "family": "ubend",
                             "params": {"radius_mm": float(r)},
                             "seed": 0,
-                            "episode": {"max_s": 20.0, "band_offset_mm": [-25.0, 25.0], "entry_offset_mm": [-5.0, 5.0]},
+                            "episode": _episode({"max_s": 20.0, "band_offset_mm": [-25.0, 25.0], "entry_offset_mm": [-5.0, 5.0]}, sim),
                         },
                         policy={"name": "constant", "pressure_kpa": float(pressure_kpa)},
                         seed=i,
@@ -55,7 +63,8 @@ def ubend_specs(trials: int = 12, radii=UBEND_RADII_MM, reductions=UBEND_REDUCTI
     return specs
 
 
-def colon_specs() -> list[TrialSpec]:
+def colon_specs(sim: dict | None = None) -> list[TrialSpec]:
+    """The colon case study's two trials; ``sim`` overrides :class:`~evertgym.sim.config.SimConfig` fields."""
     specs = []
     for red in (0.0, 0.1):
         bands = [{"position_mm": p, "reduction": red} for p in COLON_BANDS_MM] if red > 0 else []
@@ -63,7 +72,7 @@ def colon_specs() -> list[TrialSpec]:
             TrialSpec(
                 design={"tube": {"diameter_mm": 20.0, "wall_thickness_mm": 0.05, "length_mm": 800.0}, "bands": bands},
                 design_name="no bands" if red == 0 else "3 x 10%",
-                scene={"family": "colon", "params": {}, "seed": 0, "episode": {"max_s": 40.0}},
+                scene={"family": "colon", "params": {}, "seed": 0, "episode": _episode({"max_s": 40.0}, sim)},
                 policy={"name": "operator", "start_kpa": 2.0, "step_kpa": 0.5, "stall_s": 1.0, "max_kpa": 8.0},
                 seed=0,
                 index=0,
@@ -74,9 +83,9 @@ def colon_specs() -> list[TrialSpec]:
 
 
 def _run(specs, store_path, backend, workers, progress):
+    from evertgym.experiments.trial import run_trial
     from evertgym.scoring.runner import run_trials
     from evertgym.scoring.store import ResultStore
-    from evertgym.scoring.trial import run_trial
 
     with ResultStore(store_path) as store:
         return run_trials(specs, run_trial, store, backend=backend, workers=workers, progress=progress)
@@ -87,9 +96,9 @@ def _reduction(rec) -> float:
 
 
 def ubend_jam_rows(records) -> list[dict]:
-    """Per design and radius: trials, successes and :func:`~evertgym.scoring.jam.summarise_jams`
+    """Per design and radius: trials, successes and :func:`~evertgym.experiments.jam.summarise_jams`
     over the failed trials' jam anatomy."""
-    from evertgym.scoring.jam import summarise_jams
+    from evertgym.experiments.jam import summarise_jams
 
     groups: dict[tuple[float, float], list] = {}
     for rec in records:
@@ -97,15 +106,18 @@ def ubend_jam_rows(records) -> list[dict]:
     rows = []
     for (red, r), recs in sorted(groups.items(), key=lambda kv: (kv[0][0], -kv[0][1])):
         jams = [rec.result["jam"] for rec in recs if not rec.result["success"] and "jam" in rec.result]
-        rows.append({"reduction": red, "radius_mm": r, "trials": len(recs), "successes": sum(bool(x.result["success"]) for x in recs), **summarise_jams(jams)})
+        successes = sum(bool(x.result["success"]) for x in recs)
+        rows.append({"reduction": red, "radius_mm": r, "trials": len(recs), "successes": successes, **summarise_jams(jams)})
     return rows
 
 
-def reproduce_ubend(store_path: str | Path, trials: int = 12, backend: str = "process", workers: int | None = None, progress: bool = True) -> dict:
+def reproduce_ubend(store_path: str | Path, trials: int = 12, backend: str = "process", workers: int | None = None, progress: bool = True,
+                    sim: dict | None = None, radii=UBEND_RADII_MM) -> dict:
     """Run (or resume) the U-bend table; ``rows`` is the ``--json`` structure of
-    ``evertgym reproduce ubend``, ``jams`` the anatomy of its failed trials per row."""
+    ``evertgym reproduce ubend``, ``jams`` the anatomy of its failed trials per row.
+    ``sim`` overrides :class:`~evertgym.sim.config.SimConfig` fields; ``radii`` picks bend radii."""
     t0 = time.perf_counter()
-    records = _run(ubend_specs(trials), store_path, backend, workers, progress)
+    records = _run(ubend_specs(trials, radii=radii, sim=sim), store_path, backend, workers, progress)
     jams = ubend_jam_rows(records)
     rows = [{k: j[k] for k in ("reduction", "radius_mm", "trials", "successes")} for j in jams]
     return {"rows": rows, "jams": jams, "wall_s": time.perf_counter() - t0}
@@ -116,16 +128,17 @@ UBEND_JAM_LEAD = (("design", "design"), ("radius mm", "radius_mm"), ("passed", "
 
 def ubend_jam_table(jam_rows: list[dict]) -> str:
     """The markdown table of :func:`ubend_jam_rows`."""
-    from evertgym.scoring.jam import jam_table
+    from evertgym.experiments.jam import jam_table
 
     named = [{**r, "design": "no bands" if r["reduction"] == 0 else f"3 x {round(r['reduction'] * 100)}%",
               "passed": f"{r['successes']}/{r['trials']}", "radius_mm": f"{r['radius_mm']:g}"} for r in jam_rows]
     return jam_table(named, UBEND_JAM_LEAD)
 
 
-def reproduce_colon(store_path: str | Path, backend: str = "serial", progress: bool = False) -> dict:
-    """Run (or resume) the colon case study; the ``--json`` structure of ``evertgym reproduce colon``."""
-    records = _run(colon_specs(), store_path, backend, None, progress)
+def reproduce_colon(store_path: str | Path, backend: str = "serial", progress: bool = False, sim: dict | None = None) -> dict:
+    """Run (or resume) the colon case study; the ``--json`` structure of ``evertgym reproduce colon``.
+    ``sim`` overrides :class:`~evertgym.sim.config.SimConfig` fields."""
+    records = _run(colon_specs(sim), store_path, backend, None, progress)
     rows = []
     for rec in records:
         bands = rec.spec.design["bands"]
@@ -149,8 +162,7 @@ def plot_ubend(result: dict, path: str | Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from evertgym.plots import save_figure
-
+    from evertgym.experiments.plots import save_figure
     from evertgym.model.params import load_measurements
 
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
@@ -161,8 +173,10 @@ def plot_ubend(result: dict, path: str | Path) -> Path:
                     label="sim, no bands" if red == 0 else f"sim, 3 x {round(red * 100)}%")
     paper = load_measurements()["u_bend_validation"]["success_rate"]
     nb = paper["no_bands"]
-    ax.plot([37.5, 35.0, 32.5, 30.0, 27.5, 25.0, 22.5, 20.0], [nb["37.5"], nb["35.0"], nb["32.5"]] + [nb["below_32.5"]] * 5, "k--", alpha=0.5, label="paper, no bands")
-    ax.plot([25.0, 20.0], [paper["bands_10pct"]["25.0"], paper["bands_10pct"]["20.0"]], "s", color="tab:blue", alpha=0.6, label="paper, 10% (25, 20 mm)")
+    ax.plot([37.5, 35.0, 32.5, 30.0, 27.5, 25.0, 22.5, 20.0], [nb["37.5"], nb["35.0"], nb["32.5"]] + [nb["below_32.5"]] * 5,
+            "k--", alpha=0.5, label="paper, no bands")
+    ax.plot([25.0, 20.0], [paper["bands_10pct"]["25.0"], paper["bands_10pct"]["20.0"]], "s", color="tab:blue", alpha=0.6,
+            label="paper, 10% (25, 20 mm)")
     ax.set_xlabel("U-bend inner radius (mm)")
     ax.set_ylabel("success rate")
     ax.invert_xaxis()

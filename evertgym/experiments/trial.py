@@ -4,23 +4,24 @@
 ``episode`` table: ``max_s`` (time limit, default 20 s), ``control_hz`` (10),
 ``band_offset_mm`` and ``entry_offset_mm`` (``[lo, hi]`` ranges drawn per trial from the
 trial's seed: the paper's randomisation of band position against the bend and of the
-robot's start).  ``TrialSpec.policy`` names a policy: ``{"name": "constant",
+robot's start) and ``sim`` (fields of :class:`~evertgym.sim.config.SimConfig` that override
+its defaults, e.g. ``{"mass_ratio": 0.1}``; absent: the defaults).  ``TrialSpec.policy`` names a policy: ``{"name": "constant",
 "pressure_kpa": 3}``, ``{"name": "operator", ...}``, ``{"name": "tuned"}`` or
 ``{"name": "agent", "path": "agents/colon_ppo.zip"}``.
 
 A trial ends at the goal (success), at full length, at the time limit, or early once
 the robot has been stalled for ``give_up_s`` with the policy at its highest pressure
 (the outcome can no longer change).  A failed trial's result also holds ``jam``, the
-:func:`~evertgym.scoring.jam.jam_anatomy` of the robot where it stopped.
+:func:`~evertgym.sim.diagnostics.jam_anatomy` of the robot where it stopped.
 """
 
 from __future__ import annotations
 
-import numpy as np
-
-from evertgym.env import EversionEnv
-from evertgym.scoring.jam import jam_anatomy
+from evertgym.agents.evaluate import run_episode
+from evertgym.agents.policies import make_policy
+from evertgym.env.eversion_env import EversionEnv
 from evertgym.scoring.spec import TrialSpec
+from evertgym.sim.diagnostics import jam_anatomy
 
 GIVE_UP_S = 2.0
 
@@ -35,29 +36,30 @@ def make_trial_env(spec: TrialSpec) -> EversionEnv:
         entry_offset_mm=tuple(episode.get("entry_offset_mm", (0.0, 0.0))),
         control_hz=float(episode.get("control_hz", 10.0)),
         max_episode_s=float(episode.get("max_s", 20.0)),
+        sim_config=episode.get("sim"),
     )
 
 
 def play_trial(spec: TrialSpec) -> tuple[EversionEnv, dict, list[tuple[float, float]]]:
     """Play one trial to its end; returns the finished environment (its ``sim`` holds the
     final state), the last step's info and the (insertion mm, pressure kPa) trace."""
-    from evertgym.agents.policies import make_policy
-
     env = make_trial_env(spec)
     policy = make_policy(dict(spec.policy))
-    obs, info = env.reset(seed=int(spec.seed))
-    policy.reset(env)
+    max_command_pa = policy.max_command_kpa * 1e3
+    pressures: list[tuple[float, float]] = []
     stalled_at_max = 0.0
-    pressures = []
-    while True:
-        action = policy.act(obs, info)
-        obs, _, term, trunc, info = env.step(action)
+
+    def give_up(env: EversionEnv, info: dict) -> bool:
+        """Record the trace; end once the robot has stalled at the policy's highest pressure."""
+        nonlocal stalled_at_max
         sim = env.sim
         pressures.append((sim.length * 1e3, sim.pressure / 1e3))
-        at_max = sim.regulator.command >= getattr(policy, "max_command_pa", 8000.0) - 1e-6 or policy.name == "constant"
+        at_max = sim.regulator.command >= max_command_pa - 1e-6
         stalled_at_max = stalled_at_max + env.control_dt if (sim.stalled and at_max) else 0.0
-        if term or trunc or stalled_at_max >= GIVE_UP_S:
-            return env, info, pressures
+        return stalled_at_max >= GIVE_UP_S
+
+    info = run_episode(env, policy, int(spec.seed), stop=give_up)
+    return env, info, pressures
 
 
 def run_trial(spec: TrialSpec) -> dict:
@@ -76,6 +78,6 @@ def run_trial(spec: TrialSpec) -> dict:
         "pressure_position": [[round(x, 1), round(p, 3)] for x, p in pressures[:: max(1, len(pressures) // 60)]],
         "scene_params": {k: v for k, v in env.scene.params.items() if isinstance(v, (int, float, str, bool))},
     }
-    if not info["success"]:  # where and why it stopped (evertgym.scoring.jam)
+    if not info["success"]:  # where and why it stopped (evertgym.sim.diagnostics)
         result["jam"] = jam_anatomy(env.sim, env.scene)
     return result

@@ -1,0 +1,258 @@
+"""The command line's edge: every expected error becomes one line and exit code 2.
+
+``evertgym.cli.main`` runs each command through :func:`run_command`; the commands call the
+``check_*`` helpers on their flags before any work starts.  Expected errors are the
+package's validation errors (``ValueError`` and its subclasses), missing or unreadable
+files (``OSError``), bad stores (``sqlite3.Error``), unknown env ids (Gymnasium's errors),
+a model the rod solver cannot settle (``RodSolveError``) and missing optional extras
+(``ImportError``).  Anything else is a bug and keeps its traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import ipaddress
+import json
+import math
+import os
+import signal
+import sqlite3
+import sys
+import threading
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+from urllib.parse import urlsplit
+
+#: Exit code of every expected error.
+EXIT_USAGE = 2
+#: Exit code after Ctrl-C (128 + SIGINT).
+EXIT_INTERRUPTED = 130
+
+
+def _expected_errors() -> tuple[type[BaseException], ...]:
+    import gymnasium
+
+    from evertgym.model.cosserat import RodSolveError
+
+    return (ValueError, OSError, sqlite3.Error, gymnasium.error.Error, RodSolveError, ImportError)
+
+
+def run_command(func: Callable[[argparse.Namespace], int], args: argparse.Namespace) -> int:
+    """Run one command: expected errors -> ``evertgym: error: ...`` on stderr and exit 2;
+    Ctrl-C -> one line saying the same command resumes; a closed stdout pipe -> quiet."""
+    try:
+        with _interruptible():
+            return func(args)
+    except KeyboardInterrupt:
+        print("evertgym: interrupted; finished trials and checkpoints are kept: rerun the same command to resume",
+              file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except BrokenPipeError:  # e.g. `evertgym ... --json | head -c 100`
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())  # Python's own flush at exit must not fail again
+        return 1
+    except _expected_errors() as e:
+        text = " ".join(str(e).split()) or type(e).__name__
+        print(f"evertgym: error: {text}", file=sys.stderr)
+        return EXIT_USAGE
+
+
+@contextlib.contextmanager
+def _interruptible():
+    """Ctrl-C that reaches Python code: pymunk's C callbacks swallow a KeyboardInterrupt
+    raised inside them ("Exception ignored from cffi callback"), so while one runs the
+    interrupt is redelivered 10 ms later instead."""
+    if not hasattr(signal, "setitimer") or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum, frame):
+        f = frame
+        while f is not None:
+            if "pymunk" in f.f_code.co_filename:
+                signal.setitimer(signal.ITIMER_REAL, 0.01)  # retry once the callback has returned
+                return
+            f = f.f_back
+        raise KeyboardInterrupt
+
+    old_int, old_alrm = signal.signal(signal.SIGINT, handler), signal.signal(signal.SIGALRM, handler)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGINT, old_int)
+        signal.signal(signal.SIGALRM, old_alrm)
+
+
+def no_abbreviations(parser: argparse.ArgumentParser) -> None:
+    """Refuse prefixes of long flags (``--trial`` is not ``--trials``) in every subcommand."""
+    parser.allow_abbrev = False
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for sub in action.choices.values():
+                no_abbreviations(sub)
+
+
+def json_safe(obj: Any) -> Any:
+    """``obj`` with every non-finite float replaced by None (JSON has no NaN)."""
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: json_safe(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [json_safe(v) for v in obj]
+    if hasattr(obj, "tolist"):  # numpy scalars and arrays
+        return json_safe(obj.tolist())
+    return obj
+
+
+def dumps(obj: Any, **kw: Any) -> str:
+    """Strict JSON: NaN and inf become null."""
+    return json.dumps(json_safe(obj), allow_nan=False, **kw)
+
+
+def check_input_file(flag: str, path: str) -> Path:
+    """An existing regular file."""
+    p = Path(path)
+    if not p.is_file():
+        raise ValueError(f"{flag} = {path!r}: {'is a directory' if p.is_dir() else 'no such file'}: allowed an existing file")
+    return p
+
+
+def check_output_file(flag: str, path: str, suffixes: tuple[str, ...] = ()) -> Path:
+    """A file we can create: its folder exists or can be made, and is writable."""
+    p = Path(path)
+    if suffixes and p.suffix.lower() not in suffixes:
+        raise ValueError(f"{flag} = {path!r}: allowed a {' or '.join(suffixes)} file")
+    if p.is_dir():
+        raise ValueError(f"{flag} = {path!r} is a directory: allowed a file path")
+    try:
+        p.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise ValueError(f"{flag} = {path!r}: cannot create its folder ({e.strerror})") from None
+    existed = p.exists()
+    try:  # the one reliable test: open it for appending (and remove it again if it is new)
+        with open(p, "ab"):
+            pass
+        if not existed:
+            p.unlink()
+    except OSError as e:
+        raise ValueError(f"{flag} = {path!r}: not writable ({e.strerror})") from None
+    return p
+
+
+def check_env_id(flag: str, env_id: str) -> str:
+    """A registered Gymnasium id."""
+    import gymnasium as gym
+
+    try:
+        gym.spec(env_id)
+    except gym.error.Error as e:
+        raise ValueError(f"{flag} = {env_id!r}: {e}") from None
+    return env_id
+
+
+def is_local_address(address: str) -> bool:
+    """Whether a Dask address points at this machine (loopback or a local socket)."""
+    parts = urlsplit(address if "://" in address else f"tcp://{address}")
+    host = parts.hostname or ""
+    if parts.scheme in ("inproc", "ipc") or host in ("localhost", ""):
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+def warn_remote_dask(address: str, trusted: bool) -> None:
+    """One warning line for a scheduler that is not on this machine (unless ``trusted``)."""
+    if not trusted and not is_local_address(address):
+        print(f"evertgym: warning: --address = {address!r} is not local: the connection has no TLS and the cluster "
+              "exchanges pickles (code) with this process; use it only with a cluster you trust "
+              "(--trust-cluster silences this)", file=sys.stderr)
+
+
+def check_policy(flag: str, desc: Any, trust: bool) -> None:
+    """A policy description that will load: baselines are built (their parameters checked);
+    a saved model must exist and be a shipped policy unless ``trust`` (nothing is unpickled)."""
+    from evertgym.agents.policies import make_policy
+    from evertgym.agents.trust import check_trusted
+
+    d = {"name": "agent", "path": desc} if isinstance(desc, str) and desc.endswith(".zip") else desc
+    if isinstance(d, str) and ".zip:" in d:
+        d = {"name": "agent", "path": d.partition(".zip:")[0] + ".zip"}
+    if isinstance(d, dict) and d.get("name") == "agent":
+        path = check_input_file(flag, str(d.get("path", "")))
+        stats = path.with_name(path.stem + "_vecnormalize.pkl")
+        for f in (path, stats) if stats.exists() else (path,):
+            check_trusted(f, trust or bool(d.get("trust", False)))
+        return
+    try:
+        make_policy(d)
+    except ValueError as e:
+        raise ValueError(f"{flag} = {desc!r}: {e}") from None
+
+
+def check_eval_flags(args: argparse.Namespace) -> None:
+    """``evertgym eval``: counts, workers, the env id and every policy, before any episode."""
+    from evertgym.limits import MAX_EPISODES, check_workers
+
+    if not 1 <= args.episodes <= MAX_EPISODES:
+        raise ValueError(f"--episodes = {args.episodes} is out of range: allowed [1, {MAX_EPISODES}]")
+    check_workers(args.workers, args.force_workers, "--workers")
+    check_env_id("--env", args.env)
+    for desc in args.policies:
+        check_policy("policy", desc, args.trust_model)
+
+
+def check_rollout_flags(args: argparse.Namespace) -> None:
+    """``evertgym rollout``: seed, env id, policy and a writable ``--out`` before the episode."""
+    if not 0 <= args.seed < 2**63:
+        raise ValueError(f"--seed = {args.seed} is out of range: allowed integers in [0, 2^63)")
+    check_env_id("--env", args.env)
+    check_policy("policy", args.policy, args.trust_model)
+    check_output_file("--out", args.out, (".gif",))
+
+
+def check_score_flags(args: argparse.Namespace, designs: dict[str, dict], params: Any, episode: dict, policy: dict) -> dict:
+    """``evertgym score``: every flag, each design in the scene with the band jitter, counts,
+    workers, store, cluster and policy, before any trial.  Returns the policy description
+    (with ``"trust": True`` under ``--trust-model``)."""
+    from evertgym.env import EversionEnv
+    from evertgym.limits import MAX_SCENES, MAX_SPECS, MAX_TRIALS_PER_SCENE, check_workers
+
+    if not 1 <= args.scenes <= MAX_SCENES:
+        raise ValueError(f"--scenes = {args.scenes} is out of range: allowed [1, {MAX_SCENES}]")
+    if not 1 <= args.trials <= MAX_TRIALS_PER_SCENE:
+        raise ValueError(f"--trials = {args.trials} is out of range: allowed [1, {MAX_TRIALS_PER_SCENE}]")
+    n = args.scenes * args.trials * len(designs)
+    if n > MAX_SPECS:
+        raise ValueError(f"--scenes x --trials x designs = {n} is out of range: allowed at most {MAX_SPECS} trials per run")
+    if not (math.isfinite(args.max_s) and 0.1 <= args.max_s <= 3600):
+        raise ValueError(f"--max-s = {args.max_s} is out of range: allowed [0.1, 3600] s")
+    if not (math.isfinite(args.band_jitter_mm) and 0 <= args.band_jitter_mm <= 1000):
+        raise ValueError(f"--band-jitter-mm = {args.band_jitter_mm} is out of range: allowed [0, 1000] mm")
+    for name, design in designs.items():
+        try:  # the same constructor the trials use, without running one
+            EversionEnv(scene={"family": args.scene, "params": params}, design=design, max_episode_s=args.max_s,
+                        band_offset_mm=tuple(episode["band_offset_mm"]), entry_offset_mm=tuple(episode["entry_offset_mm"]))
+        except ValueError as e:
+            raise ValueError(f"design {name!r} with --scene {args.scene!r}: {e}") from None
+    check_workers(args.workers, args.force_workers, "--workers")
+    check_output_file("--db", args.db)
+    if args.address:
+        warn_remote_dask(args.address, args.trust_cluster)
+    check_policy("--policy", policy, args.trust_model)
+    return {**policy, "trust": True} if args.trust_model and policy.get("name") == "agent" else policy
+
+
+def check_optimize_flags(args: argparse.Namespace) -> None:
+    """``evertgym optimize``: counts and output files before the study starts."""
+    for flag, v, hi in (("--trials", args.trials, 10_000), ("--scenes", args.scenes, 1000),
+                        ("--trials-per-scene", args.trials_per_scene, 1000), ("--held-out", args.held_out, 1000)):
+        if not 1 <= v <= hi:
+            raise ValueError(f"{flag} = {v} is out of range: allowed [1, {hi}]")
+    check_output_file("--study", args.study)
+    check_output_file("--db", args.db)

@@ -1,0 +1,107 @@
+"""Invariance harness (issue 13): SimConfig overrides reach every simulation; the slow test
+holds the criteria at full size (reproduce ubend, reproduce colon, operator on Colon-v0)."""
+
+from __future__ import annotations
+
+import os
+
+import pytest
+
+from evertgym.experiments.paper import colon_specs, ubend_specs
+from evertgym.experiments.trial import make_trial_env
+from evertgym.scoring.spec import TrialSpec
+
+# keys of the first U-bend spec and of the colon specs, computed on the code before ``sim``
+# existed: specs without overrides must keep them, so existing stores stay valid
+UBEND_KEY_0 = "181d9abba9a79a48397648a0681ad0f66fec4b96f624f491f388b2ac10d4fe52"
+COLON_KEYS = ("26ac8e97687192aaa5da6c0e995715f3b0c40e41664ffe631a63eb125add8d89",
+              "9d668fd9290eb62786479300104fb5a09aec1fad9637ce18725e4bc0de82aef1")
+
+
+def test_specs_without_sim_keep_their_keys():
+    assert ubend_specs()[0].key == UBEND_KEY_0
+    assert ubend_specs(sim=None)[0].key == UBEND_KEY_0
+    assert ubend_specs(sim={})[0].key == UBEND_KEY_0
+    assert tuple(s.key for s in colon_specs()) == COLON_KEYS
+    assert "sim" not in ubend_specs()[0].scene["episode"]
+
+
+def test_sim_override_reaches_the_trial_env():
+    spec = ubend_specs(trials=1, radii=(30.0,), reductions=(0.0,), sim={"dt_s": 0.001})[0]
+    assert spec.scene["episode"]["sim"] == {"dt_s": 0.001}
+    assert spec.key != ubend_specs(trials=1, radii=(30.0,), reductions=(0.0,))[0].key
+    env = make_trial_env(spec)
+    env.reset(seed=0)
+    assert env.sim.cfg.dt_s == 0.001
+    env.close()
+    colon = colon_specs(sim={"mass_ratio": 0.1})[1]
+    env = make_trial_env(colon)
+    env.reset(seed=0)
+    assert env.sim.cfg.mass_ratio == 0.1 and env.sim.cfg.dt_s == 0.002
+    env.close()
+    # a plain trial spec carrying the override in its episode table
+    plain = TrialSpec(design={"tube": {"diameter_mm": 40.0, "length_mm": 500.0}, "bands": []}, design_name="d",
+                      scene={"family": "ubend", "params": {}, "seed": 0, "episode": {"sim": {"inertia_factor": 10.0}}},
+                      policy={"name": "constant", "pressure_kpa": 3.0}, seed=0, index=0, group="g")
+    assert make_trial_env(plain).sim_config.inertia_factor == 10.0
+
+
+def test_unknown_sim_field_is_refused():
+    spec = ubend_specs(trials=1, radii=(30.0,), reductions=(0.0,), sim={"not_a_field": 1.0})[0]
+    with pytest.raises(ValueError, match="sim_config"):
+        make_trial_env(spec)
+
+
+def test_operator_evaluation_takes_sim_config():
+    """evaluate's env kwargs carry the override through the (JSON) TrialSpec into the env."""
+    from evertgym.agents.evaluate import _policy_and_env, evaluate
+    from evertgym.scoring.spec import canonical_json
+
+    _, env = _policy_and_env(canonical_json({"name": "operator"}), "evertgym/Colon-v0", canonical_json({"sim_config": {"dt_s": 0.001}}))
+    assert env.unwrapped.sim_config.dt_s == 0.001
+    rows = evaluate(["operator"], "evertgym/Colon-v0", 1, env_kwargs={"sim_config": {"max_growth_speed_m_per_s": 0.5}, "max_episode_s": 1.0})
+    assert rows[0]["episodes"] == 1 and 0.0 <= rows[0]["success_rate"] <= 1.0
+
+
+def test_settings_and_table(tmp_path):
+    """The settings change one knob at a time; compare/format_table on a hand-made result."""
+    from evertgym.experiments.invariance import SETTINGS, compare, format_table, ubend_table
+    from evertgym.sim.config import SimConfig
+
+    assert SETTINGS[0] == ("reference", {})
+    assert [s for _, s in SETTINGS[1:]] == [{"mass_ratio": 0.003}, {"mass_ratio": 0.1}, {"inertia_factor": 10.0}, {"dt_s": 0.001}]
+    for _, sim in SETTINGS:
+        SimConfig(**sim)  # valid, e.g. max_growth_speed * dt_s <= 0.2 ds
+
+    def run(sim, succ, passed, op):
+        return {"sim": sim, "ubend": [{"reduction": 0.0, "radius_mm": 30.0, "trials": 12, "successes": succ}],
+                "colon": [{"reduction": 0.0, "passed": passed, "stall_position_mm": None if passed else 300.0, "peak_pressure_kpa": 8.0}],
+                "operator": {"success_rate": op, "episodes": 50}}
+
+    ref = run({}, 5, False, 0.4)
+    rows = [compare("reference", ref, ref, 12), compare("mass_ratio=0.1", run({"mass_ratio": 0.1}, 8, True, 0.6), ref, 12)]
+    assert rows[0]["holds"] and rows[0]["ubend_max_cell_change"] == 0
+    bad = rows[1]
+    assert bad["ubend_max_cell_change"] == 3 and not bad["ubend_ok"] and not bad["colon_same"]
+    assert bad["operator_change"] == pytest.approx(0.2) and not bad["operator_ok"] and not bad["holds"]
+    result = {"rows": rows, "runs": {"reference": ref, "mass_ratio=0.1": run({"mass_ratio": 0.1}, 8, True, 0.6)},
+              "criteria": {"ubend_max_cell_change_of_12": 2, "colon_outcomes_equal": True, "operator_max_change": 0.1},
+              "trials": 12, "episodes": 50}
+    table = format_table(result)
+    assert "| mass_ratio=0.1 | 3 (0.0/30) |" in table and "+0.20 | NO |" in table
+    assert "| no bands | 30 | 5/12 | 8/12 |" in ubend_table(result)
+
+
+@pytest.mark.slow
+def test_invariance_full_size(tmp_path):
+    """Issue 13's criteria at full size (30+ min on 2 cores).  EVERTGYM_INVARIANCE_DIR keeps the
+    stores between runs (start it empty after a change to the physics)."""
+    from evertgym.experiments.invariance import CRITERIA, format_table, run_invariance
+
+    out = os.environ.get("EVERTGYM_INVARIANCE_DIR") or tmp_path
+    result = run_invariance(out, trials=12, episodes=50, workers=2)
+    table = format_table(result)
+    for row in result["rows"]:
+        assert row["ubend_max_cell_change"] <= CRITERIA["ubend_max_cell_change_of_12"], table
+        assert row["colon_same"], table
+        assert abs(row["operator_change"]) <= CRITERIA["operator_max_change"] + 1e-9, table
