@@ -209,12 +209,18 @@ class TubeDesign:
             raise DesignError("tube must be a table with diameter_mm, wall_thickness_mm, length_mm")
         _no_unknown("tube", tube, {"diameter_mm", "wall_thickness_mm", "length_mm"})
         kw: dict[str, Any] = {}
+        # ranges checked here in the file's own units, so errors name the file's fields
         if "diameter_mm" in tube:
-            kw["diameter_m"] = _finite("tube.diameter_mm", tube["diameter_mm"]) / 1e3
+            kw["diameter_m"] = _in_range("tube.diameter_mm", tube["diameter_mm"], 0.0, 500.0, lo_open=True, hi_open=False,
+                                         unit="mm") / 1e3
         if "wall_thickness_mm" in tube:
-            kw["wall_thickness_m"] = _finite("tube.wall_thickness_mm", tube["wall_thickness_mm"]) / 1e3
+            radius_mm = kw.get("diameter_m", cls.diameter_m) * 1e3 / 2
+            kw["wall_thickness_m"] = _in_range("tube.wall_thickness_mm", tube["wall_thickness_mm"], 0.0,
+                                               MAX_THICKNESS_TO_RADIUS * radius_mm, lo_open=True, hi_open=True,
+                                               unit="mm (thin-walled: below 0.1 x radius)") / 1e3
         if "length_mm" in tube:
-            kw["length_m"] = _finite("tube.length_mm", tube["length_mm"]) / 1e3
+            kw["length_m"] = _in_range("tube.length_mm", tube["length_mm"], MIN_LENGTH_M * 1e3, 20e3, lo_open=False,
+                                       hi_open=False, unit="mm") / 1e3
         law = d.get("pressure_law", {})
         if not isinstance(law, dict):
             raise DesignError("pressure_law must be a table with membrane_modulus_mpa, pressure_stiffening")
@@ -228,9 +234,10 @@ class TubeDesign:
             raise DesignError("bands must be a list of tables with position_mm, reduction, width_mm")
         bands = []
         for i, b in enumerate(raw_bands):
+            if isinstance(b, dict):  # a misspelt key is named before the missing one it stands for
+                _no_unknown(f"bands[{i}]", b, {"position_mm", "reduction", "width_mm"})
             if not isinstance(b, dict) or "position_mm" not in b or "reduction" not in b:
                 raise DesignError(f"bands[{i}] must have position_mm and reduction (width_mm optional)")
-            _no_unknown(f"bands[{i}]", b, {"position_mm", "reduction", "width_mm"})
             try:
                 bands.append(
                     Band(
@@ -241,6 +248,7 @@ class TubeDesign:
                 )
             except DesignError as e:
                 raise DesignError(f"bands[{i}].{e}") from None
+        _check_band_places(bands, kw.get("length_m", cls.length_m))
         return cls(bands=tuple(bands), **kw)
 
     def save(self, path: str | Path) -> None:
@@ -269,6 +277,25 @@ class TubeDesign:
             return cls.from_dict(data)
         except DesignError as e:
             raise DesignError(f"{path}: {e}") from None
+
+
+def _check_band_places(bands: list[Band], length_m: float) -> None:
+    """Each band inside the body and clear of the others, in a design file's terms: its
+    index in the file and ``position_mm``."""
+    length_mm = length_m * 1e3
+    for i, b in enumerate(bands):
+        half = b.width_m * 1e3 / 2
+        pos = b.position_m * 1e3
+        if not (half <= pos <= length_mm - half):
+            raise DesignError(f"bands[{i}].position_mm = {pos:g} is out of range: allowed [{half:g}, {length_mm - half:g}] mm "
+                              f"(the {2 * half:g} mm strip must lie inside the {length_mm:g} mm body)")
+    order = sorted(range(len(bands)), key=lambda k: bands[k].position_m)
+    for j, i in zip(order, order[1:]):  # neighbours along the body
+        a, b = bands[j], bands[i]
+        need = (a.width_m + b.width_m) / 2 * 1e3
+        if (b.position_m - a.position_m) * 1e3 < need:
+            raise DesignError(f"bands[{i}].position_mm = {b.position_m * 1e3:g} overlaps bands[{j}] at {a.position_m * 1e3:g}: "
+                              f"allowed a centre spacing >= {need:g} mm")
 
 
 def _no_unknown(section: str, table: dict, allowed: set[str]) -> None:

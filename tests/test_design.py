@@ -79,7 +79,12 @@ def test_bands_from_tip_convert_to_body_coordinates():
 @pytest.mark.parametrize(
     "text, message",
     [
-        ("[tube]\ndiameter_mm = -40\n", "diameter_m = -0.04 is out of range"),
+        ("[tube]\ndiameter_mm = -40\n", "tube.diameter_mm = -40.0 is out of range: allowed (0, 500] mm"),
+        ("[tube]\nlength_mm = 600\n[[bands]]\nposition_mm = 800\nreduction = 0.1\n",
+         "bands[0].position_mm = 800 is out of range: allowed [7.5, 592.5] mm"),
+        ("[[bands]]\nposition_mm = 300\nreduction = 0.1\n[[bands]]\nposition_mm = 200\nreduction = 0.1\n"
+         "[[bands]]\nposition_mm = 305\nreduction = 0.1\n", "bands[2].position_mm = 305 overlaps bands[0] at 300"),
+        ("[[bands]]\nposition_mm = 300\nreductoin = 0.1\n", "bands[0]: unknown field(s) ['reductoin']"),
         ("[tube]\ndiameter = 40\n", "unknown field(s) ['diameter']"),
         ("[[bands]]\nposition_mm = 300\nreduction = 0.7\n", "bands[0].reduction = 0.7 is out of range: allowed [0, 0.6)"),
         ("[[bands]]\nreduction = 0.1\n", "bands[0] must have position_mm and reduction"),
