@@ -143,7 +143,7 @@ def cmd_reproduce_eversion(args: argparse.Namespace) -> int:
 
     step = _check("--step-kpa", args.step_kpa, 0.001, 1.0, "kPa")
     t0 = time.perf_counter()
-    result = reproduce_eversion(step_pa=step * 1e3)
+    result = reproduce_eversion(step_pa=step * 1e3, progress=not args.json)
     if args.json:
         print(dumps(result))
         return 0

@@ -64,13 +64,17 @@ def min_eversion_pressure(
     return hi * step_pa
 
 
-def reproduce_eversion(reductions: list[float] | None = None, step_pa: float = 10.0, config: SimConfig | None = None) -> dict:
-    """The ``--json`` structure of ``evertgym reproduce eversion``."""
+def reproduce_eversion(reductions: list[float] | None = None, step_pa: float = 10.0, config: SimConfig | None = None,
+                       progress: bool = False) -> dict:
+    """The ``--json`` structure of ``evertgym reproduce eversion``; ``progress`` shows a bar
+    over the reductions (on stderr)."""
+    from tqdm import tqdm
+
     table = {r["diameter_reduction"]: r for r in load_measurements()["eversion_pressure_test"]["rows"]}
     if reductions is None:
         reductions = sorted(table) + [0.6]
     rows = []
-    for red in reductions:
+    for red in tqdm(reductions, desc="reproduce eversion", unit="reduction", disable=not progress):
         p = min_eversion_pressure(paper_eversion_robot(red), step_pa, config=config)
         meas = table.get(red)
         rows.append(
