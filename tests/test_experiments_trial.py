@@ -19,11 +19,11 @@ def test_max_command_kpa_of_each_policy():
 
 
 def test_capped_operator_gives_up_once_stalled_at_its_cap():
-    """An operator capped at 3 kPa that jams in the 20 mm U-bend can get no more help: the
+    """An operator capped at 0.8 kPa that jams in the 20 mm U-bend can get no more help: the
     trial must end about GIVE_UP_S after the stall instead of running to the time limit
     (before the fix it looked up a name no policy defined and ran all 20 s)."""
     spec = ubend_specs(trials=1, radii=(20.0,), reductions=(0.0,))[0]
-    spec = dataclasses.replace(spec, policy={"name": "operator", "start_kpa": 3.0, "max_kpa": 3.0})
+    spec = dataclasses.replace(spec, policy={"name": "operator", "start_kpa": 0.8, "max_kpa": 0.8})
     result = run_trial(spec)
     assert not result["success"]
     max_s = spec.scene["episode"]["max_s"]

@@ -54,7 +54,7 @@ def play_trial(spec: TrialSpec) -> tuple[EversionEnv, dict, list[tuple[float, fl
         nonlocal stalled_at_max
         sim = env.sim
         pressures.append((sim.length * 1e3, sim.pressure / 1e3))
-        at_max = sim.regulator.command >= max_command_pa - 1e-6
+        at_max = sim.regulator.command >= max_command_pa - 0.5  # Pa: float32 actions round the command
         stalled_at_max = stalled_at_max + env.control_dt if (sim.stalled and at_max) else 0.0
         return stalled_at_max >= GIVE_UP_S
 
