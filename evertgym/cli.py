@@ -279,6 +279,35 @@ def cmd_bench_env(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_diagnose(args: argparse.Namespace) -> int:
+    from evertgym.experiments.diagnose import plot_trace, trace_ubend
+
+    _check("--radius-mm", args.radius_mm, 20.0, 40.0, "mm")
+    _check("--reduction", args.reduction, 0.0, 0.5, "")
+    if args.seed < 0:
+        raise CLIError(f"--seed = {args.seed!r} is out of range: allowed integers >= 0")
+    trace = trace_ubend(args.radius_mm, args.reduction, args.seed)
+    if args.plot:
+        plot_trace(trace, args.plot)
+    if args.json:
+        print(dumps(trace))
+        return 0
+    s = trace["samples"]
+    peak = max(s, key=lambda x: x["tip_force_n"])
+    print(f"U-bend {args.radius_mm:g} mm, reduction {args.reduction:g}, trial {args.seed}: "
+          f"{'passed' if trace['success'] else 'jammed'} at {s[-1]['insertion_mm']:.0f} mm after {s[-1]['t_s']:.1f} s")
+    print(f"largest wall force on the tip {peak['tip_force_n']:.2f} N at {peak['t_s']:.1f} s "
+          f"(capacity of the weakest section then {peak['tip_capacity_n']:.2f} N)")
+    last = s[-1]
+    if last["moment_ratio"]:
+        j = max(range(len(last["moment_ratio"])), key=lambda k: last["moment_ratio"][k])
+        print(f"at the end: peak |M|/M_c {last['moment_ratio'][j]:.2f} at {last['joint_mm'][j]:.0f} mm; "
+              f"smallest T_wall {min(last['wall_tension_n']):.2f} N; bands at {trace['bands_mm']} mm")
+    if args.plot:
+        print(f"figure: {args.plot}")
+    return 0
+
+
 def cmd_reproduce_ubend(args: argparse.Namespace) -> int:
     from evertgym.experiments.paper import plot_ubend, reproduce_ubend
 
@@ -508,6 +537,14 @@ def build_parser() -> argparse.ArgumentParser:
     rs.add_argument("--plot", default=None, help="write a force-displacement plot (PNG) here")
     rs.add_argument("--no-sim", action="store_true", help="skip the pymunk simulator's columns")
     rs.set_defaults(func=cmd_reproduce_stiffness)
+
+    dg = _sub(sub, "diagnose", "the section law over time for one U-bend trial: wall tension, M/M_c, tip force vs capacity")
+    dg.add_argument("--radius-mm", type=float, default=30.0, help="U-bend inner radius (mm), [20, 40]")
+    dg.add_argument("--reduction", type=float, default=0.0, help="band reduction of the 3-band design (0: no bands)")
+    dg.add_argument("--seed", type=int, default=0, help="trial number of reproduce ubend (its seed)")
+    dg.add_argument("--plot", default=None, help="write the figure here (PNG)")
+    dg.add_argument("--json", action="store_true", help="print the trace as JSON")
+    dg.set_defaults(func=cmd_diagnose)
 
     ru = _sub(rep_sub, "ubend", "validation experiment: U-bend success rates (Fig. 4d)")
     ru.add_argument("--json", action="store_true", help=_JSON_HELP)

@@ -38,8 +38,9 @@ def _episode(episode: dict, sim: dict | None) -> dict:
 
 
 def ubend_specs(trials: int = 12, radii=UBEND_RADII_MM, reductions=UBEND_REDUCTIONS, pressure_kpa: float = 3.0,
-                sim: dict | None = None) -> list[TrialSpec]:
-    """The U-bend trials; ``sim`` overrides :class:`~evertgym.sim.config.SimConfig` fields in every one."""
+                sim: dict | None = None, scene_params: dict | None = None) -> list[TrialSpec]:
+    """The U-bend trials; ``sim`` overrides :class:`~evertgym.sim.config.SimConfig` fields in every one,
+    ``scene_params`` the ``ubend`` family's parameters (e.g. ``wall_friction``) beside the radius."""
     specs = []
     for red in reductions:
         for r in radii:
@@ -50,7 +51,7 @@ def ubend_specs(trials: int = 12, radii=UBEND_RADII_MM, reductions=UBEND_REDUCTI
                         design_name="no bands" if red == 0 else f"3 x {round(red * 100)}%",
                         scene={
                             "family": "ubend",
-                            "params": {"radius_mm": float(r)},
+                            "params": {**(scene_params or {}), "radius_mm": float(r)},
                             "seed": 0,
                             "episode": _episode({"max_s": 20.0, "band_offset_mm": [-25.0, 25.0], "entry_offset_mm": [-5.0, 5.0]}, sim),
                         },

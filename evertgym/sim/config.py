@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 
 from evertgym._validate import check_range as _check
 from evertgym.model.eversion import GROWTH_GAIN_M_PER_S_PER_PA, MAX_GROWTH_SPEED_M_PER_S
+from evertgym.model.params import load_navigation_params
 
 
 @dataclass(frozen=True)
@@ -34,14 +35,24 @@ class SimConfig:
         everted body is laid down and does not slide along the walls, so it is high.
         ``tip_friction``: the same for the everting tip segment, whose fold rolls over a
         wall as it everts and slides easily.  ``regulator_tau_s``: pressure
-        lag.  ``growth_gain_m_per_s_per_pa``, ``bend_loss_per_rad``, ``max_growth_speed_m_per_s``:
-        the growth law (:mod:`evertgym.sim.growth`).
+        lag.  ``growth_gain_m_per_s_per_pa``, ``bend_loss_per_rad`` (the tail's capstan
+        coefficient), ``tail_drag_fraction`` (the share of the bare eversion threshold that is
+        the tail's drag at the base), ``max_growth_speed_m_per_s``: the growth law
+        (:mod:`evertgym.sim.growth`) and the tail tension of the section law.
     Rest lock
         A stalled robot whose every dynamic body (segments and compliant wall pieces)
         moves slower than ``rest_speed_m_per_s`` is in static equilibrium: it is held there,
         without stepping the solver, until the regulated pressure moves by more than
         ``rest_pressure_tol_pa`` (Coulomb friction sticks; Chipmunk's iterative solver only
         approximates sticking and lets a loaded chain creep, then kick).  0 disables it.
+    Quasi-static growth
+        After each growth increment the chain is stepped, without advancing time, until its
+        active segments move slower than ``relax_speed_m_per_s`` (at most ``max_relax_steps``
+        steps; 0 m/s disables it), so outcomes do not depend on the scaled masses
+        (:meth:`EversionSim._relax`).
+    Contact forces
+        ``force_window_s``: the tip's wall force is its impulse over this window divided by
+        the window (a quasi-static force, the same for any step; :meth:`EversionSim._tip_reaction`).
     Events
         ``stall_time_s``: a stall is no growth faster than ``stall_speed_m_per_s`` for this long.
     """
@@ -60,13 +71,18 @@ class SimConfig:
     tip_friction: float = 0.2
     regulator_tau_s: float = 0.15
     growth_gain_m_per_s_per_pa: float = GROWTH_GAIN_M_PER_S_PER_PA
-    bend_loss_per_rad: float = 0.08
+    bend_loss_per_rad: float = field(default_factory=lambda: load_navigation_params().bend_loss_per_rad)
+    tail_drag_fraction: float = field(default_factory=lambda: load_navigation_params().tail_drag_fraction)
     max_growth_speed_m_per_s: float = MAX_GROWTH_SPEED_M_PER_S
     stall_time_s: float = 1.0
     stall_speed_m_per_s: float = 1e-3
     rest_speed_m_per_s: float = 1e-5
     rest_pressure_tol_pa: float = 1.0
     initial_length_m: float = 0.015
+    force_window_s: float = 0.02
+    relax_speed_m_per_s: float = 0.02
+    relax_length_m: float = 0.05
+    max_relax_steps: int = 50
 
     def __post_init__(self) -> None:
         _check("segment_length_m", self.segment_length_m, 0.0005, 0.05, lo_open=False)
@@ -84,12 +100,17 @@ class SimConfig:
         _check("regulator_tau_s", self.regulator_tau_s, 0.0, 100.0)
         _check("growth_gain_m_per_s_per_pa", self.growth_gain_m_per_s_per_pa, 0.0, 1.0)
         _check("bend_loss_per_rad", self.bend_loss_per_rad, 0.0, 10.0)
+        _check("tail_drag_fraction", self.tail_drag_fraction, 0.0, 1.0)
         _check("max_growth_speed_m_per_s", self.max_growth_speed_m_per_s, 0.0, 10.0, lo_open=True)
         _check("stall_time_s", self.stall_time_s, 0.0, 1e6, lo_open=True)
         _check("stall_speed_m_per_s", self.stall_speed_m_per_s, 0.0, 10.0)
         _check("rest_speed_m_per_s", self.rest_speed_m_per_s, 0.0, 1e-2)
         _check("rest_pressure_tol_pa", self.rest_pressure_tol_pa, 0.0, 1000.0)
         _check("initial_length_m", self.initial_length_m, self.segment_length_m, 100.0)
+        _check("force_window_s", self.force_window_s, self.dt_s, 1.0)
+        _check("relax_speed_m_per_s", self.relax_speed_m_per_s, 0.0, 10.0)
+        _check("max_relax_steps", self.max_relax_steps, 0, 100000)
+        _check("relax_length_m", self.relax_length_m, 0.0, 100.0)
         if self.max_growth_speed_m_per_s * self.dt_s > 0.2 * self.segment_length_m:
             raise ValueError(
                 f"max_growth_speed_m_per_s * dt_s = {self.max_growth_speed_m_per_s * self.dt_s:g} m per step is out of "

@@ -89,3 +89,25 @@ def jam_anatomy(sim: EversionSim, scene) -> dict:
         "bands": bands,
         "pressure_margin_kpa": round((sim.pressure - sim.required_pressure()) / 1e3, 3),
     }
+
+
+def section_state(sim: EversionSim) -> dict:
+    """The section law's state of ``sim`` now (SI in, mm / N in the keys): per active joint its
+    material position, wall tension ``T_wall``, ``|M| / M_c`` and fold capacity, and the tip's
+    wall force against the capacity of the weakest section behind it."""
+    a = sim.active_start
+    ratios = np.abs(sim.joint_moments(a)) / np.maximum(sim.collapse_moments(a), 1e-12)
+    n = min(len(ratios), len(sim.wall_tension))
+    return {
+        "t_s": round(sim.t, 4),
+        "insertion_mm": round(sim.length * 1e3, 2),
+        "pressure_kpa": round(sim.pressure / 1e3, 4),
+        "joint_mm": [round(float(x) * 1e3, 2) for x in sim.nodes[a : a + n]],
+        "wall_tension_n": [round(float(x), 4) for x in sim.wall_tension[:n]],
+        "moment_ratio": [round(float(x), 4) for x in ratios[:n]],
+        "capacity_n": [round(float(x), 4) for x in sim.compression_capacity[:n]],
+        "tip_force_n": round(float(math.hypot(*sim.tip_contact)), 4),
+        "tip_axial_force_n": round(sim.tip_force, 4),
+        "tip_capacity_n": round(sim.tip_capacity, 4),
+        "kinked_joints_mm": [round(float(sim.nodes[j]) * 1e3, 2) for j in sim.kinked_joints],
+    }

@@ -7,25 +7,35 @@ Apical extension follows the yield-pressure model of Blumenschein, Okamura & Haw
 Hawkes et al. (Science Robotics 2017): the tip everts at a rate proportional to the
 pressure in excess of what eversion needs,
 
-    v = min(v_max, K_g max(0, p - p_req)),
+    v = min(v_max, K_g max(0, p - p_req)).
 
-and the pressure needed grows with the forces resisting the tip and, through capstan
-friction of the inner tail sliding over every bend the everted body has already turned
-(the loss Haggerty et al., IROS 2019, observed growing with the turning angle), with the
-total turning angle ``Theta`` of the body:
+The pressure on the tip cap must fold new material out, haul the tail and push whatever
+blocks the tip:
 
-    p_req = (p_y(s_tip) + F_tip / A_tip + w_tail / A_tip) exp(mu_b Theta).
+    p_req A_tip = F_fold + T_tail(tip) + F_tip + w_tail,
 
-* ``p_y(s)``: the eversion (yield) threshold of the material at the tip, about 0.45 kPa
-  for the bare tube; while a band passes the tip it rises to the threshold of the local
-  reduction, :class:`evertgym.model.eversion.EversionThreshold`, calibrated on the
-  paper's eversion-pressure table (Exp 4).
-* ``F_tip``: the wall's reaction on the tip along the growth direction (N).
+* ``F_fold + T_base = p_y(rho_tip) A_tip``: with no bend and nothing ahead the tip needs its
+  material's eversion (yield) threshold ``p_y``, about 0.45 kPa for the bare tube; while a
+  band passes the tip it rises to the threshold of the local reduction
+  (:class:`evertgym.model.eversion.EversionThreshold`, calibrated on the paper's
+  eversion-pressure table, Exp 4);
+* ``T_tail(tip) = T_base exp(mu_b Theta)``: the tail is hauled from the base through every
+  bend the everted body has turned (total turning ``Theta``), and capstan friction on the
+  inside of those bends amplifies the base's drag ``T_base`` (Euler-Eytelwein; the loss
+  Haggerty, Naclerio & Hawkes, IROS 2019, observed growing with the turning angle;
+  Blumenschein et al. 2017).  ``T_base = f_tail p_y(0) pi r^2``, a fraction ``f_tail`` of
+  the bare threshold.  The loss acts on the tail only: it does not multiply the wall's
+  reaction on the tip (``shared/notes/bend-physics.md``, section 3);
+* ``F_tip``: the wall's reaction on the tip along the growth direction (N), never more than
+  the weakest section can carry (:mod:`evertgym.model.section_law`);
 * ``w_tail``: the weight of the not-yet-everted tail hauled against gravity (only in the
   vertical eversion test; the 2-D scenes lie in a horizontal plane).
-* ``mu_b``: the bend-loss (capstan) coefficient; ``K_g``: the growth gain (m/s per Pa);
-  ``v_max``: the speed the supply's air flow allows.  None of them is constrained by the
-  paper's calibration data; all are exposed.
+
+So ``p_req = p_y + (T_base (exp(mu_b Theta) - 1) + F_tip) / A_tip + w_tail / A_tip``.
+``mu_b`` (the capstan coefficient), ``f_tail``, ``K_g`` (the growth gain, m/s per Pa) and
+``v_max`` (the speed the supply's air flow allows) are not constrained by the stiffness or
+eversion data: ``mu_b`` and ``f_tail`` are fitted on the paper's no-band U-bend rows
+(``scripts/calibrate_navigation.py``).
 
 The pressure follows the command through a first-order regulator lag (time constant
 ``tau``, the SMC ITV2050's response is of order 0.1-0.2 s); commands are clipped to
@@ -86,11 +96,18 @@ class GrowthLaw:
     max_speed_m_per_s: float = MAX_GROWTH_SPEED_M_PER_S
 
     def required_pressure(
-        self, tip_reduction_threshold_pa: float, tip_force_n: float, tip_area_m2: float, turning_rad: float, tail_pa: float = 0.0
+        self,
+        tip_threshold_pa: float,
+        tip_force_n: float,
+        tip_area_m2: float,
+        turning_rad: float,
+        tail_pa: float = 0.0,
+        base_tail_n: float = 0.0,
     ) -> float:
-        return (tip_reduction_threshold_pa + max(tip_force_n, 0.0) / tip_area_m2 + tail_pa) * math.exp(
-            self.bend_loss * turning_rad
-        )
+        """``p_req`` (Pa): the tip's threshold, the tail's capstan loss
+        ``T_base (exp(mu_b Theta) - 1)``, the wall's reaction and the tail's weight, per tip area."""
+        capstan = base_tail_n * math.expm1(self.bend_loss * turning_rad)
+        return tip_threshold_pa + (capstan + max(tip_force_n, 0.0)) / tip_area_m2 + tail_pa
 
     def speed(self, pressure_pa: float, required_pa: float) -> float:
         return min(self.max_speed_m_per_s, self.gain_m_per_s_per_pa * max(0.0, pressure_pa - required_pa))

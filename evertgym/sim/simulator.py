@@ -12,6 +12,12 @@ at the tip, whose segment lengthens continuously (between one and two segment le
 then splits), so the insertion length is not quantised.  The everted body never slides:
 growth only moves the tip.  Growth follows :mod:`evertgym.sim.growth`.
 
+Axial load: the joints carry compression only up to each section's capacity
+``p pi r^2 - T_tail`` and fold axially beyond it, and their wrinkling and collapse moments
+follow the wall's tension (:mod:`evertgym.model.section_law`), so no wall pushes on the tip
+harder than the weakest section between the tip and the base can carry.  The pressure's
+push on the tip is internal: it is the chain's axial stiffness up to that capacity.
+
 Quasi-static regime: masses are scaled (see :class:`~evertgym.sim.config.SimConfig`);
 only equilibria are physical.  Segments far behind the tip that are at rest become static
 bodies and leave the active set, so a step costs in proportion to the active length.
@@ -32,6 +38,8 @@ from evertgym.model.eversion import EversionThreshold, tail_weight_pressure
 from evertgym.model.params import ModelParams, load_params
 from evertgym.model.pressure import KINK_MOMENT_FRACTION, InflatedBeamLaw
 from evertgym.model.section import TubeSection
+from evertgym.model.section_law import compression_capacity, distal_compression, tail_tension, wall_tension
+from evertgym.model.section_law import wrinkling_moment as wrinkling_moment_of_wall
 from evertgym.sim.config import SimConfig
 from evertgym.sim.discretize import hat_compliance, joint_moment, segment_inertia
 from evertgym.sim.growth import GrowthLaw, PressureRegulator
@@ -117,6 +125,7 @@ class EversionSim:
         self._c_ref = hat_compliance(self._ref_section, self.nodes, design.length_m)
         self._cs_ref = hat_compliance(self._ref_section, self.nodes, design.length_m, shear=True)
         r_cell = np.array([float(np.min(self._ref_section.radius(np.linspace(max(s - ds / 2, 0), s + ds / 2, 17)))) for s in self.nodes])
+        self._r_cell = r_cell
         self._r3 = r_cell**3
         self._law = InflatedBeamLaw.for_design(design)
         seg_s = np.linspace(0, design.length_m, int(design.length_m / (ds / 8)) + 2)
@@ -143,20 +152,28 @@ class EversionSim:
         self.event_counts: dict[str, int] = {}
         self._kinked: set[int] = set()
         self._in_contact = False
-        self._frontal = False
         self._bands_reached: set[int] = set()
         self._stall_clock = 0.0
         self._stalled = False
         self._rest_pressure: float | None = None  # the pressure (Pa) the rest lock holds at
         self.stall_count = 0
+        self.relax_steps = 0  # solver steps spent relaxing without advancing time
         self.growth_speed = 0.0
         self.tip_force = 0.0
         self.tip_contact = np.zeros(2)
+        self._tip_impulses = np.zeros((max(1, int(round(cfg.force_window_s / cfg.dt_s))), 2))  # ring buffer (N s)
+        self._tip_impulse_sum = np.zeros(2)
         self.max_contact_force = 0.0
         self.peak_pressure = 0.0
         self._p_applied = -1.0
         self._k_now = np.zeros(0)
         self._mw_now = np.zeros(0)
+        #: the tail's drag at the base (N): the part of the eversion threshold that is tail
+        #: tension, capstan-amplified over the body's bends (evertgym.sim.growth)
+        self._tail_base_n = cfg.tail_drag_fraction * float(self.threshold(0.0)) * math.pi * design.radius_m**2
+        self._wall_tension = np.zeros(0)  # T_wall of the active joints at the last law update (N)
+        self._capacity = np.zeros(0)  # N_max of the active joints (N)
+        self._turning = 0.0
 
         self._anchor = space.static_body
         self.length = 0.0
@@ -207,7 +224,9 @@ class EversionSim:
             prev, anchor_prev, rest = self._anchor, tuple(self.base), -self.base_angle
             normal = (-math.sin(self.base_angle), math.cos(self.base_angle))
         scale = self._law.effective_modulus(max(self._p_applied, 0.0)) / self._e_ref
-        link = make_link(prev, body, anchor_prev, normal, self.ds / 4, scale / self._c_ref[j], scale / self._cs_ref[j], self._beta, rest)
+        cap = float(compression_capacity(max(self._p_applied, 0.0), self._r_cell[j], self._tail_base_n))
+        link = make_link(prev, body, anchor_prev, normal, self.ds, scale / self._c_ref[j], scale / self._cs_ref[j], self._beta, rest,
+                         axial_capacity=cap)
         self.space.add(body, shape, *link.constraints)
         self.bodies.append(body)
         self.shapes.append(shape)
@@ -259,9 +278,26 @@ class EversionSim:
         return 2.0 * self._mw_now[start : len(self.bodies)]
 
     def _update_joint_law(self) -> None:
-        """Secant stiffness of the active joints from the non-linear law; kink events."""
+        """The section law at the active joints (:mod:`evertgym.model.section_law`): wall
+        tension from the pressure, the tail and the compression the contacts distal to each
+        joint put on it; the wrinkling and collapse moments and the fold capacity it sets;
+        then each joint's secant stiffness from the non-linear law, and kink events."""
         a = self.active_start
         phi = self.joint_angles(a)
+        p = max(self._p_applied, 0.0)
+        r = self._r_cell[a : a + len(phi)]
+        theta = self._frozen_turning + np.cumsum(np.abs(phi))  # turning from the base to each joint
+        t_tail = tail_tension(self._tail_base_n, theta, self.growth.bend_loss)
+        angles = np.fromiter((b.angle for b in self.bodies[a:]), float, len(phi))
+        axes = np.column_stack((np.cos(angles), np.sin(angles)))
+        t_wall = wall_tension(p, r, t_tail, distal_compression(self._contact_forces(a), axes))
+        self._wall_tension = t_wall
+        self._mw_now[a : a + len(phi)] = wrinkling_moment_of_wall(t_wall, r)
+        capacity = compression_capacity(p, r, t_tail)
+        if len(capacity) != len(self._capacity) or np.any(np.abs(capacity - self._capacity) > 1e-3 * (capacity + 1e-3)):
+            for link, c in zip(self.links[a:], capacity.tolist()):
+                link.push.max_force = c
+            self._capacity = capacity
         k = self._k_now[a : a + len(phi)]
         moments = joint_moment(phi, k, self._mw_now[a : a + len(phi)])
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -276,7 +312,26 @@ class EversionSim:
                 self._event("kink", joint_mm=round(float(self.nodes[j]) * 1e3, 3), at_band=bool(self._r3[j] < 0.999 * self.design.radius_m**3))
         if self._kinked:  # a joint that unloads well below its kink moment is no longer kinked
             self._kinked = {j for j in self._kinked if j < a or abs(moments[j - a]) >= 0.8 * KINK_MOMENT_FRACTION * mc[j - a]}
-        self._turning = self._frozen_turning + float(np.sum(np.abs(phi)))
+        self._turning = float(theta[-1]) if len(theta) else self._frozen_turning
+
+    def _contact_forces(self, start: int) -> np.ndarray:
+        """Wall forces (N) on bodies ``start..``, one row per body: the last step's impulses
+        over the step, and for the tip its windowed force (:meth:`_tip_reaction`)."""
+        out = np.zeros((len(self.bodies) - start, 2))
+        dt = self.cfg.dt_s
+        for i, body in enumerate(self.bodies[start:]):
+            total = [0.0, 0.0]
+
+            def acc(arb: pymunk.Arbiter, total: list[float] = total) -> None:
+                imp = arb.total_impulse
+                total[0] += imp.x
+                total[1] += imp.y
+
+            body.each_arbiter(acc)
+            out[i] = total
+        out /= dt
+        out[-1] = self.tip_contact
+        return out
 
     # ---- stepping ---------------------------------------------------------------
     def set_pressure_command(self, pressure_pa: float) -> float:
@@ -303,6 +358,24 @@ class EversionSim:
         return sorted(self._kinked)
 
     @property
+    def wall_tension(self) -> np.ndarray:
+        """``T_wall`` (N) of the active joints ``active_start..`` at the last law update
+        (:mod:`evertgym.model.section_law`); negative where the wall would have to push."""
+        return self._wall_tension.copy()
+
+    @property
+    def compression_capacity(self) -> np.ndarray:
+        """``N_max = p pi r^2 - T_tail`` (N) of the active joints at the last law update: the
+        compression each carries before it folds axially."""
+        return self._capacity.copy()
+
+    @property
+    def tip_capacity(self) -> float:
+        """The most the wall may push on the tip (N): the smallest compression capacity
+        between the tip and the first active joint."""
+        return float(np.min(self._capacity)) if len(self._capacity) else 0.0
+
+    @property
     def in_contact(self) -> bool:
         """Whether the tip segment touched a wall in the last step."""
         return self._in_contact
@@ -313,29 +386,32 @@ class EversionSim:
             self.events.append(SimEvent(round(self.t, 6), kind, round(self.length * 1e3, 3), detail))
 
     def _tip_reaction(self) -> None:
-        """Wall force on the tip body (N), its component against growth, and whether any
-        contact lies ahead of the tip (its normal within about 78 degrees of the tip axis)."""
+        """Wall force on the tip body (N) and its component against growth.
+
+        The force is the wall's impulse on the tip over the last ``cfg.force_window_s``
+        divided by that time: a force in the quasi-static sense, the same whatever the step.
+        A single step's impulse over the step is not one: a contact that the growing tip
+        meets with an overlap is resolved in one step by an impulse whose size depends on
+        the step and the scaled masses."""
         body = self.bodies[-1]
         t = self.tip_direction
         total = [0.0, 0.0]
         touching = False
-        frontal = False
 
         def acc(arb):
-            nonlocal touching, frontal
+            nonlocal touching
             imp = arb.total_impulse
             total[0] += imp.x
             total[1] += imp.y
             touching = True
-            n = arb.normal  # from the tip's shape towards the other one
-            if n.x * t[0] + n.y * t[1] > 0.2:
-                frontal = True
 
         body.each_arbiter(acc)
-        f = np.array(total) / self.cfg.dt_s
+        k = self.steps % len(self._tip_impulses)
+        self._tip_impulse_sum += np.array(total) - self._tip_impulses[k]
+        self._tip_impulses[k] = total
+        f = self._tip_impulse_sum / (len(self._tip_impulses) * self.cfg.dt_s)
         self.tip_contact = f
         self.tip_force = max(0.0, -float(f @ t))
-        self._frontal = frontal
         mag = float(math.hypot(*f))
         self.max_contact_force = max(self.max_contact_force, mag)
         if touching and not self._in_contact:
@@ -402,27 +478,14 @@ class EversionSim:
         r_tip = self.design.radius_m * (1 - rho)
         return float(self.threshold(rho)), math.pi * r_tip * r_tip
 
-    def _push_tip(self, p: float, p_y: float, area: float) -> None:
-        """The everting tip's force on an obstacle ahead: ``A (p exp(-mu_b Theta) - p_y)``,
-        along the tip (a follower load).  It acts only while a contact lies ahead: the
-        pressure's end force on a free tip is carried by the tube wall's own tension and
-        loads nothing.  Against a wall it is what the contact resists, so a blocked tip
-        stalls where the growth law says it should, and the body carries that reaction
-        in compression."""
-        if self.length >= self.design.length_m or not self._frontal:
-            return
-        f = area * (p * math.exp(-self.growth.bend_loss * self._turning) - p_y)
-        if f > 0:
-            sh = self.shapes[-1]
-            self.bodies[-1].apply_force_at_local_point((f, 0.0), (sh.b.x, 0.0))
-
     def _required_pressure(self, p_y: float, area: float) -> float:
         tail = tail_weight_pressure(self.design.diameter_m, self.design.wall_thickness_m, self.length) if self.vertical_tail else 0.0
-        return self.growth.required_pressure(p_y, self.tip_force, area, self._turning, tail)
+        return self.growth.required_pressure(p_y, self.tip_force, area, self._turning, tail, self._tail_base_n)
 
     def required_pressure(self) -> float:
         """Pressure (Pa) the tip needs to grow now: its material's eversion threshold plus the
-        bend losses and the wall's reaction against growth; below it the robot stalls."""
+        tail's capstan losses over the body's bends and the wall's reaction against growth;
+        below it the robot stalls."""
         p_y, area = self._tip_threshold()
         return self._required_pressure(p_y, area)
 
@@ -493,18 +556,49 @@ class EversionSim:
             if self.steps % _FREEZE_INTERVAL == 0:
                 self._freeze_check()
             p_y, area = self._tip_threshold()
-            self._push_tip(p, p_y, area)
             self.space.step(dt)
             self.t += dt
             self.steps += 1
             self._tip_reaction()
             v = self.growth.speed(p, self._required_pressure(p_y, area)) if self.length < self.design.length_m else 0.0
             self._grow(v)
+            if v > 0:  # relax after a growth increment (not between a user's own loads)
+                self._relax()
             self.growth_speed = v
             self._stall_update(v, dt)
             if self._stalled and cfg.rest_speed_m_per_s > 0 and self.steps % _FREEZE_INTERVAL == 0 and self._at_rest(p):
                 self._rest_pressure = p
         self._check_finite()
+
+    def _tip_region_speed(self) -> float:
+        """Largest speed (m/s) of the segments within ``cfg.relax_length_m`` of the tip, their
+        ends included (``|v| + |w| ds``)."""
+        ds = self.ds
+        first = max(self.active_start, len(self.bodies) - max(1, int(round(self.cfg.relax_length_m / ds))))
+        return max((b.velocity.length + abs(b.angular_velocity) * ds for b in self.bodies[first:]), default=0.0)
+
+    def _relax(self) -> None:
+        """Quasi-static growth: after material is added, step the chain without advancing time,
+        growth or the regulator until every active segment is slower than
+        ``cfg.relax_speed_m_per_s`` (at most ``cfg.max_relax_steps`` steps).
+
+        The scaled masses make the chain's dynamics fictitious; what the robot does must not
+        depend on them.  Growth at up to 0.1 m/s drives the tip into walls faster than the chain
+        relaxes (its damping time is about 70 ms), so without this the outcome of a first contact
+        is decided by a dynamic transient whose course changes with the mass, the inertia and
+        the step.  Relaxing to rest before the next increment makes every growth increment a
+        sequence of equilibria, whatever those settings."""
+        cfg = self.cfg
+        if cfg.relax_speed_m_per_s <= 0:
+            return
+        for k in range(cfg.max_relax_steps):
+            if self._tip_region_speed() <= cfg.relax_speed_m_per_s:
+                return
+            if k % cfg.law_interval == cfg.law_interval - 1:
+                self._update_joint_law()
+            self.space.step(cfg.dt_s)
+            self.relax_steps += 1
+            self._tip_reaction()
 
     def _at_rest(self, p: float) -> bool:
         """Whether every dynamic body in the space (active segments, compliant wall pieces)

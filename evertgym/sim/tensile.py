@@ -74,7 +74,7 @@ def sim_tensile_test(
         body.center_of_gravity = (ds / 2, 0.0)  # first: later it would move the origin
         body.angle = math.atan2(y[j + 1] - y[j], x[j + 1] - x[j])  # then the angle, then the origin
         body.position = (x[j], y[j])
-        link = make_link(prev, body, prev_anchor, (0.0, 1.0), ds / 4, float(law.stiffness[j]), float(law.shear_stiffness[j]), beta)
+        link = make_link(prev, body, prev_anchor, (0.0, 1.0), ds, float(law.stiffness[j]), float(law.shear_stiffness[j]), beta)
         space.add(body, *link.constraints)
         bodies.append(body)
         springs.append(link.bend)

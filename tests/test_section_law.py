@@ -1,0 +1,85 @@
+"""The section law (closed-tube statics) and the force cap it puts on every contact."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pymunk
+import pytest
+
+from evertgym.design import TubeDesign
+from evertgym.model.section_law import (
+    collapse_moment,
+    compression_capacity,
+    distal_compression,
+    tail_tension,
+    wall_tension,
+    wrinkling_moment,
+)
+from evertgym.scenes import make_scene
+from evertgym.sim import EversionSim
+
+
+def test_unloaded_section_has_the_classical_moments():
+    p, r = 3000.0, 0.02
+    t = wall_tension(p, np.array([r]), 0.0, 0.0)
+    assert t[0] == pytest.approx(p * math.pi * r**2)
+    assert wrinkling_moment(t, r)[0] == pytest.approx(p * math.pi * r**3 / 2)
+    assert collapse_moment(t, r)[0] == pytest.approx(p * math.pi * r**3)
+
+
+def test_axial_load_lowers_the_moments_and_a_slack_wall_carries_none():
+    """The note's table at 3 kPa with C = 3 N (shared/notes/bend-physics.md, section 2), no tail."""
+    p, c = 3000.0, 3.0
+    r = 0.02 * (1 - np.array([0.0, 0.1, 0.2, 0.3]))
+    t = wall_tension(p, r, 0.0, c)
+    np.testing.assert_allclose(p * math.pi * r**2, [3.77, 3.05, 2.41, 1.85], atol=0.01)
+    np.testing.assert_allclose(t[:2], [0.77, 0.05], atol=0.01)
+    assert np.all(t[2:] < 0)
+    mc = collapse_moment(t, r)
+    assert mc[0] / (p * math.pi * 0.02**3) == pytest.approx(0.77 / 3.77, rel=1e-2)
+    assert np.all(mc[2:] == 0.0)
+    np.testing.assert_allclose(compression_capacity(p, r, 0.5), np.maximum(p * math.pi * r**2 - 0.5, 0))
+    assert compression_capacity(0.0, r, 0.5).max() == 0.0  # deflated: no compression at all
+
+
+def test_distal_compression_sums_the_forces_ahead_along_each_axis():
+    forces = np.array([[0.0, 1.0], [0.0, 0.0], [-2.0, 0.5]])  # N, base to tip
+    axes = np.array([[1.0, 0.0], [0.0, 1.0], [1.0, 0.0]])
+    np.testing.assert_allclose(distal_compression(forces, axes), [2.0, -0.5, 2.0])
+
+
+def test_tail_tension_grows_by_the_capstan_law():
+    t = tail_tension(0.5, np.array([0.0, math.pi]), 0.3)
+    np.testing.assert_allclose(t, [0.5, 0.5 * math.exp(0.3 * math.pi)])
+
+
+class _HeadOnWall:
+    """A flat wall across the robot's path, 150 mm ahead."""
+
+    def build(self, space: pymunk.Space, dt: float | None = None) -> None:
+        seg = pymunk.Segment(space.static_body, (0.15, -0.3), (0.15, 0.3), 0.002)
+        seg.friction = 0.5
+        space.add(seg)
+
+
+CASES = {
+    "ubend 20 mm": (lambda: make_scene({"family": "ubend", "params": {"radius_mm": 20.0}, "seed": 0}), 0.040, 0.9, 10.0),
+    "colon": (lambda: make_scene({"family": "colon", "params": {}, "seed": 0}), 0.020, 0.8, 12.0),
+    "tortuous": (lambda: make_scene({"family": "tortuous", "params": {}, "seed": 3}), 0.040, 1.2, 12.0),
+    "head-on wall": (_HeadOnWall, 0.040, 0.6, 6.0),
+}
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_no_wall_pushes_the_tip_harder_than_the_tube_can_carry(case):
+    """Grown at 8 kPa into each scene family, the largest wall force on the tip stays within
+    1.5 p pi r_tip^2: the tube folds axially rather than carry more (issue 13)."""
+    scene, diameter_m, length_m, run_s = CASES[case]
+    sim = EversionSim(TubeDesign(diameter_m=diameter_m, length_m=length_m), scene=scene())
+    sim.set_pressure_command(8000.0)
+    sim.run(run_s)
+    capacity = 8000.0 * math.pi * (diameter_m / 2) ** 2
+    assert sim.max_contact_force > 0.2 * capacity, "the tip never met a wall: the case tests nothing"
+    assert sim.max_contact_force <= 1.5 * capacity
