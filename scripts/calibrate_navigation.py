@@ -1,8 +1,9 @@
 """Fit the navigation parameters nothing else constrains on the paper's no-band U-bend rows only.
 
 Casing friction factor, the tail's capstan coefficient and the tail's share of the eversion
-threshold (:mod:`evertgym.experiments.navigation_fit`); writes ``evertgym/data/navigation_params.json``
-with the grid, the best point and how each no-band cell moves with +-0.05 of each parameter.
+threshold, under the section law (:mod:`evertgym.experiments.navigation_fit`); writes
+``evertgym/data/navigation_fit.json`` with the grid, the best point and how each no-band cell
+moves with +-0.05 of each parameter.
 Every candidate has its own store under ``--out``, so a killed fit resumes::
 
     python scripts/calibrate_navigation.py                  # the grid below, 12 trials per cell
@@ -29,7 +30,7 @@ def main() -> None:
     ap.add_argument("--trials", type=int, default=12, help="trials per radius (the paper's 12)")
     ap.add_argument("--workers", type=int, default=None, help="worker processes (default: the CPUs)")
     ap.add_argument("--out", default="runs/calibrate_navigation", help="folder of the per-candidate stores")
-    ap.add_argument("--no-write", action="store_true", help="do not rewrite evertgym/data/navigation_params.json")
+    ap.add_argument("--no-write", action="store_true", help="do not rewrite evertgym/data/navigation_fit.json")
     ap.add_argument("--json", action="store_true", help="print the result as JSON")
     args = ap.parse_args()
     grid = {"casing_friction_factor": args.friction, "bend_loss_per_rad": args.bend_loss, "tail_drag_fraction": args.tail}

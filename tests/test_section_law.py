@@ -18,7 +18,9 @@ from evertgym.model.section_law import (
     wrinkling_moment,
 )
 from evertgym.scenes import make_scene
-from evertgym.sim import EversionSim
+from evertgym.sim import EversionSim, SimConfig
+
+LAW = SimConfig(section_law=True)
 
 
 def test_unloaded_section_has_the_classical_moments():
@@ -77,9 +79,32 @@ def test_no_wall_pushes_the_tip_harder_than_the_tube_can_carry(case):
     """Grown at 8 kPa into each scene family, the largest wall force on the tip stays within
     1.5 p pi r_tip^2: the tube folds axially rather than carry more (issue 13)."""
     scene, diameter_m, length_m, run_s = CASES[case]
-    sim = EversionSim(TubeDesign(diameter_m=diameter_m, length_m=length_m), scene=scene())
+    sim = EversionSim(TubeDesign(diameter_m=diameter_m, length_m=length_m), scene=scene(), config=LAW)
     sim.set_pressure_command(8000.0)
     sim.run(run_s)
     capacity = 8000.0 * math.pi * (diameter_m / 2) ** 2
     assert sim.max_contact_force > 0.2 * capacity, "the tip never met a wall: the case tests nothing"
     assert sim.max_contact_force <= 1.5 * capacity
+
+
+@pytest.mark.parametrize("wall_deg, deflects", [(45.0, True), (60.0, True), (70.0, True), (80.0, False)])
+def test_tip_slides_outside_the_friction_cone_and_buckles_inside_it(wall_deg, deflects):
+    """The 40 mm robot at 3 kPa meets a wall 100 mm ahead at incidence 90 - wall_deg from the
+    wall's normal (tests/test_sim.py's inclined wall).  Under the section law, whose growth
+    increments are relaxed to rest, it slides along walls of 45, 30 and 20 degrees incidence,
+    outside the tip friction's cone (0.2: 11 degrees).  Nearly head-on (10 degrees, inside the
+    cone) the wall takes the push, the wall tension behind the tip falls, the body loses its
+    bending capacity and buckles sideways, away from the wall (vine bodies buckle under axial
+    load: Coad et al., RA-L 2020); the tip never takes more than the tube can carry."""
+    from test_sim import _InclinedWall  # the same wall as the rigid-column model's test
+
+    sim = EversionSim(TubeDesign(length_m=0.3), scene=_InclinedWall(0.1, wall_deg), config=LAW)
+    sim.set_pressure_command(3000.0)
+    sim.run(4.0)
+    heading = math.degrees(math.atan2(sim.tip_direction[1], sim.tip_direction[0]))
+    if deflects:
+        assert sim.length == pytest.approx(0.3) and heading == pytest.approx(wall_deg, abs=10.0)
+    else:
+        assert abs(heading - wall_deg) > 45.0  # it did not turn along the wall
+        assert sim.tip_position[0] < 0.1  # nor go through it
+    assert sim.max_contact_force <= 1.5 * 3000.0 * math.pi * 0.02**2

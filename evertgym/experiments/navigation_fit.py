@@ -1,4 +1,5 @@
-"""Fit of the navigation parameters that nothing else constrains, on the no-band U-bend rows only.
+"""Fit of the section law's navigation parameters that nothing else constrains, on the no-band
+U-bend rows only (``SimConfig(section_law=True)``).
 
 ``measurements.json`` lets the no-band U-bend rows calibrate "parameters nothing else constrains,
 such as wall friction, bend losses and tail tension".  Three are free here:
@@ -28,12 +29,14 @@ from pathlib import Path
 from typing import Any
 
 from evertgym.experiments.paper import _run, ubend_specs
-from evertgym.model.params import NAVIGATION_PATH, load_measurements
+from evertgym.model.params import DATA_DIR, load_measurements
 
 #: The paper's no-band rates by radius (mm); below 32.5 mm none passed.
 PAPER_BARE = {40.0: 1.0, 37.5: 1.0, 35.0: 0.583, 32.5: 0.333, 30.0: 0.0, 27.5: 0.0, 25.0: 0.0}
 FIT_RADII_MM = (37.5, 35.0, 32.5, 30.0, 27.5)
 PARAMETERS = ("casing_friction_factor", "bend_loss_per_rad", "tail_drag_fraction")
+#: Where the fit is recorded (the grid, the best point, its sensitivity).
+FIT_PATH = DATA_DIR / "navigation_fit.json"
 
 
 def paper_bare_rates() -> dict[float, float]:
@@ -63,7 +66,7 @@ def _key(point: dict[str, float]) -> str:
 def evaluate(point: dict[str, float], store_dir: Path, trials: int = 12, radii: Sequence[float] = FIT_RADII_MM,
              workers: int | None = None, progress: bool = False) -> dict[int | float, int]:
     """Bare-robot passes per radius for one parameter point (resumable)."""
-    sim = {"bend_loss_per_rad": point["bend_loss_per_rad"], "tail_drag_fraction": point["tail_drag_fraction"]}
+    sim = {"section_law": True, "bend_loss_per_rad": point["bend_loss_per_rad"], "tail_drag_fraction": point["tail_drag_fraction"]}
     specs = ubend_specs(trials, radii=radii, reductions=(0.0,), sim=sim,
                         scene_params={"wall_friction": point["casing_friction_factor"]})
     records = _run(specs, store_dir / f"{_key(point)}.sqlite", "process", workers, progress)
@@ -102,8 +105,8 @@ def sensitivity(best: dict[str, float], store_dir: str | Path, trials: int = 12,
     return out
 
 
-def write_params(result: dict[str, Any], sens: list[dict[str, Any]], path: str | Path = NAVIGATION_PATH) -> Path:
-    """Write the versioned navigation parameter file with where each number came from."""
+def write_params(result: dict[str, Any], sens: list[dict[str, Any]], path: str | Path = FIT_PATH) -> Path:
+    """Write the versioned record of the fit (grid, best point, sensitivity) with where each number came from."""
     best = result["best"]
     doc = {
         "version": _dt.date.today().isoformat() + "-bare-ubend-fit",

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass
-from functools import cache, lru_cache
+from functools import lru_cache
 from pathlib import Path
 
 DATA_DIR = Path(__file__).resolve().parent.parent / "data"
@@ -100,31 +100,3 @@ def load_measurements() -> dict:
     with open(MEASUREMENTS_PATH, encoding="utf-8") as f:
         return json.load(f)
 
-
-#: Parameters of navigation that neither the stiffness nor the eversion tests constrain,
-#: fitted on the paper's no-band U-bend rows by ``scripts/calibrate_navigation.py``.
-NAVIGATION_PATH = DATA_DIR / "navigation_params.json"
-
-
-@dataclass(frozen=True)
-class NavigationParams:
-    """``casing_friction_factor`` (multiplies the robot's own Coulomb coefficients against the
-    paper's PLA U-bend casing), ``bend_loss_per_rad`` (the tail's capstan coefficient) and
-    ``tail_drag_fraction`` (the share of the bare eversion threshold that is tail drag at the
-    base); ``version`` and ``source`` say where they came from."""
-
-    casing_friction_factor: float
-    bend_loss_per_rad: float
-    tail_drag_fraction: float
-    version: str
-    source: str
-
-
-@cache
-def load_navigation_params(path: str | None = None) -> NavigationParams:
-    """The navigation parameter file (``evertgym/data/navigation_params.json``)."""
-    with open(Path(path) if path else NAVIGATION_PATH, encoding="utf-8") as f:
-        d = json.load(f)
-    fit = d["fitted"]
-    return NavigationParams(float(fit["casing_friction_factor"]), float(fit["bend_loss_per_rad"]),
-                            float(fit["tail_drag_fraction"]), str(d["version"]), str(d["fitted_on"]))

@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 
 from evertgym._validate import check_range as _check
 from evertgym.model.eversion import GROWTH_GAIN_M_PER_S_PER_PA, MAX_GROWTH_SPEED_M_PER_S
-from evertgym.model.params import load_navigation_params
 
 
 @dataclass(frozen=True)
@@ -45,12 +44,16 @@ class SimConfig:
         without stepping the solver, until the regulated pressure moves by more than
         ``rest_pressure_tol_pa`` (Coulomb friction sticks; Chipmunk's iterative solver only
         approximates sticking and lets a loaded chain creep, then kick).  0 disables it.
-    Quasi-static growth
+    Axial-load model
+        ``section_law``: False (default) is the rigid-column model; True the section law
+        (:mod:`evertgym.model.section_law`, :mod:`evertgym.sim.simulator`), under which
+        ``tail_drag_fraction``, the force window and the quasi-static relaxation below apply.
+    Quasi-static growth (section law)
         After each growth increment the chain is stepped, without advancing time, until its
         active segments move slower than ``relax_speed_m_per_s`` (at most ``max_relax_steps``
         steps; 0 m/s disables it), so outcomes do not depend on the scaled masses
         (:meth:`EversionSim._relax`).
-    Contact forces
+    Contact forces (section law)
         ``force_window_s``: the tip's wall force is its impulse over this window divided by
         the window (a quasi-static force, the same for any step; :meth:`EversionSim._tip_reaction`).
     Events
@@ -71,14 +74,15 @@ class SimConfig:
     tip_friction: float = 0.2
     regulator_tau_s: float = 0.15
     growth_gain_m_per_s_per_pa: float = GROWTH_GAIN_M_PER_S_PER_PA
-    bend_loss_per_rad: float = field(default_factory=lambda: load_navigation_params().bend_loss_per_rad)
-    tail_drag_fraction: float = field(default_factory=lambda: load_navigation_params().tail_drag_fraction)
+    bend_loss_per_rad: float = 0.08
+    tail_drag_fraction: float = 1.0
     max_growth_speed_m_per_s: float = MAX_GROWTH_SPEED_M_PER_S
     stall_time_s: float = 1.0
     stall_speed_m_per_s: float = 1e-3
     rest_speed_m_per_s: float = 1e-5
     rest_pressure_tol_pa: float = 1.0
     initial_length_m: float = 0.015
+    section_law: bool = False
     force_window_s: float = 0.02
     relax_speed_m_per_s: float = 0.02
     relax_length_m: float = 0.05

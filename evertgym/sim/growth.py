@@ -102,10 +102,14 @@ class GrowthLaw:
         tip_area_m2: float,
         turning_rad: float,
         tail_pa: float = 0.0,
-        base_tail_n: float = 0.0,
+        base_tail_n: float | None = None,
     ) -> float:
-        """``p_req`` (Pa): the tip's threshold, the tail's capstan loss
-        ``T_base (exp(mu_b Theta) - 1)``, the wall's reaction and the tail's weight, per tip area."""
+        """``p_req`` (Pa).  With the tail's drag at the base ``base_tail_n`` (the section law):
+        the tip's threshold, the tail's capstan loss ``T_base (exp(mu_b Theta) - 1)``, the wall's
+        reaction and the tail's weight, per tip area.  Without it (the rigid-column model):
+        ``(p_y + F_tip / A + w_tail / A) exp(mu_b Theta)``, the loss multiplying everything."""
+        if base_tail_n is None:
+            return (tip_threshold_pa + max(tip_force_n, 0.0) / tip_area_m2 + tail_pa) * math.exp(self.bend_loss * turning_rad)
         capstan = base_tail_n * math.expm1(self.bend_loss * turning_rad)
         return tip_threshold_pa + (capstan + max(tip_force_n, 0.0)) / tip_area_m2 + tail_pa
 

@@ -1,7 +1,11 @@
-"""The joint between two segments: axial struts, a shear spring and a bending spring.
+"""The joint between two segments: an axial constraint, a shear spring and a bending spring.
 
 A joint joins the distal segment's origin (``body`` local (0, 0)) to an anchor on the
-proximal segment.  Axially it holds the chain together with two one-sided slide joints
+proximal segment.  By default (the rigid-column model) a ``GrooveJoint`` across the end of
+the proximal segment holds it axially (the distal origin may slide along the proximal
+segment's normal, within +/- a quarter segment) and a linear ``DampedSpring`` between the
+two points resists that sliding.  With an ``axial_capacity`` (the section law,
+``SimConfig(section_law=True)``) it instead holds the chain together with two one-sided slide joints
 measured from a point ``lever`` behind the anchor on the proximal axis, so that they act
 along that axis only (a sideways shear offset ``d`` changes their length by ``d^2 / 2 lever``):
 
@@ -26,7 +30,6 @@ impulses before it damps velocities, so an uncompensated spring would carry only
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import pymunk
@@ -37,14 +40,14 @@ LEVER_SEGMENTS = 20.0
 
 @dataclass
 class Link:
-    hold: pymunk.SlideJoint
-    push: pymunk.SlideJoint
+    axial: tuple[pymunk.Constraint, ...]
     shear: pymunk.DampedSpring
     bend: pymunk.DampedRotarySpring
+    push: pymunk.SlideJoint | None = None  # the foldable compression strut (section law only)
 
     @property
     def constraints(self) -> tuple:
-        return (self.hold, self.push, self.shear, self.bend)
+        return (*self.axial, self.shear, self.bend)
 
 
 def make_link(
@@ -57,17 +60,25 @@ def make_link(
     k_shear: float,
     beta: float,
     rest_angle: float = 0.0,
-    axial_capacity: float = math.inf,
+    axial_capacity: float | None = None,
 ) -> Link:
     """A joint whose distal origin (``body`` local (0, 0)) sits at ``anchor_prev`` on ``prev``.
 
     ``normal_prev`` is the unit shear direction in ``prev``'s local frame (world frame when
     ``prev`` is the static body); the axis is the normal turned by -90 degrees.
-    ``axial_capacity`` (N) is the compression the joint carries before it folds; it may fold
-    by up to half a segment.
+    ``axial_capacity`` (N), if given, is the compression the joint carries before it folds
+    (by up to half a segment); ``None`` makes the chain axially rigid (a groove joint).
     """
     ax, ay = anchor_prev
     nx, ny = normal_prev
+    bend = pymunk.DampedRotarySpring(prev, body, rest_angle, k_bend / beta, 0.0)
+    if axial_capacity is None:
+        half = segment_length / 4
+        groove = pymunk.GrooveJoint(prev, body, (ax - nx * half, ay - ny * half), (ax + nx * half, ay + ny * half), (0.0, 0.0))
+        shear_spring = pymunk.DampedSpring(prev, body, anchor_prev, (0.0, 0.0), 0.0, k_shear / beta, 0.0)
+        for c in (groove, shear_spring, bend):
+            c.collide_bodies = False
+        return Link((groove,), shear_spring, bend)
     tx, ty = ny, -nx  # the proximal axis
     lever = LEVER_SEGMENTS * segment_length
     back = (ax - tx * lever, ay - ty * lever)
@@ -76,7 +87,7 @@ def make_link(
     push.max_force = axial_capacity
     side = (ax - nx * lever, ay - ny * lever)
     shear = pymunk.DampedSpring(prev, body, side, (0.0, 0.0), lever, k_shear / beta, 0.0)
-    bend = pymunk.DampedRotarySpring(prev, body, rest_angle, k_bend / beta, 0.0)
-    for c in (hold, push, shear, bend):
-        c.collide_bodies = False
-    return Link(hold, push, shear, bend)
+    for strut in (hold, push):
+        strut.collide_bodies = False
+    shear.collide_bodies = bend.collide_bodies = False
+    return Link((hold, push), shear, bend, push)

@@ -12,11 +12,16 @@ at the tip, whose segment lengthens continuously (between one and two segment le
 then splits), so the insertion length is not quantised.  The everted body never slides:
 growth only moves the tip.  Growth follows :mod:`evertgym.sim.growth`.
 
-Axial load: the joints carry compression only up to each section's capacity
-``p pi r^2 - T_tail`` and fold axially beyond it, and their wrinkling and collapse moments
-follow the wall's tension (:mod:`evertgym.model.section_law`), so no wall pushes on the tip
-harder than the weakest section between the tip and the base can carry.  The pressure's
-push on the tip is internal: it is the chain's axial stiffness up to that capacity.
+Two models of the axial load (``SimConfig.section_law``).  The default, the rigid-column
+model, keeps the chain axially rigid, sets the wrinkling and collapse moments from the
+pressure alone (``p pi r^3 / 2``, ``p pi r^3``), pushes a blocked tip with a follower load
+and multiplies the tip's whole resistance by the bend loss; it reproduces the paper's no-band
+U-bend rows, but lets walls push the tip beyond what the tube can carry and its outcomes move
+with the numerical knobs (docs/sim.md).  With ``section_law=True`` the joints carry
+compression only up to each section's capacity ``p pi r^2 - T_tail`` and fold axially beyond
+it, their moments follow the wall's tension (:mod:`evertgym.model.section_law`), the bend
+loss acts on the tail only, tip forces are windowed impulses and each growth increment is
+relaxed to rest: no wall pushes on the tip harder than the weakest section can carry.
 
 Quasi-static regime: masses are scaled (see :class:`~evertgym.sim.config.SimConfig`);
 only equilibria are physical.  Segments far behind the tip that are at rest become static
@@ -152,6 +157,7 @@ class EversionSim:
         self.event_counts: dict[str, int] = {}
         self._kinked: set[int] = set()
         self._in_contact = False
+        self._frontal = False
         self._bands_reached: set[int] = set()
         self._stall_clock = 0.0
         self._stalled = False
@@ -161,8 +167,8 @@ class EversionSim:
         self.growth_speed = 0.0
         self.tip_force = 0.0
         self.tip_contact = np.zeros(2)
-        self._tip_impulses = np.zeros((max(1, int(round(cfg.force_window_s / cfg.dt_s))), 2))  # ring buffer (N s)
-        self._tip_impulse_sum = np.zeros(2)
+        window = int(round(cfg.force_window_s / cfg.dt_s)) if cfg.section_law else 1
+        self._tip_impulses = np.zeros((max(1, window), 2))  # ring buffer (N s)
         self.max_contact_force = 0.0
         self.peak_pressure = 0.0
         self._p_applied = -1.0
@@ -170,7 +176,7 @@ class EversionSim:
         self._mw_now = np.zeros(0)
         #: the tail's drag at the base (N): the part of the eversion threshold that is tail
         #: tension, capstan-amplified over the body's bends (evertgym.sim.growth)
-        self._tail_base_n = cfg.tail_drag_fraction * float(self.threshold(0.0)) * math.pi * design.radius_m**2
+        self._tail_base_n = cfg.tail_drag_fraction * float(self.threshold(0.0)) * math.pi * design.radius_m**2 if cfg.section_law else None
         self._wall_tension = np.zeros(0)  # T_wall of the active joints at the last law update (N)
         self._capacity = np.zeros(0)  # N_max of the active joints (N)
         self._turning = 0.0
@@ -224,7 +230,7 @@ class EversionSim:
             prev, anchor_prev, rest = self._anchor, tuple(self.base), -self.base_angle
             normal = (-math.sin(self.base_angle), math.cos(self.base_angle))
         scale = self._law.effective_modulus(max(self._p_applied, 0.0)) / self._e_ref
-        cap = float(compression_capacity(max(self._p_applied, 0.0), self._r_cell[j], self._tail_base_n))
+        cap = None if self._tail_base_n is None else float(compression_capacity(max(self._p_applied, 0.0), self._r_cell[j], self._tail_base_n))
         link = make_link(prev, body, anchor_prev, normal, self.ds, scale / self._c_ref[j], scale / self._cs_ref[j], self._beta, rest,
                          axial_capacity=cap)
         self.space.add(body, shape, *link.constraints)
@@ -284,20 +290,9 @@ class EversionSim:
         then each joint's secant stiffness from the non-linear law, and kink events."""
         a = self.active_start
         phi = self.joint_angles(a)
-        p = max(self._p_applied, 0.0)
-        r = self._r_cell[a : a + len(phi)]
-        theta = self._frozen_turning + np.cumsum(np.abs(phi))  # turning from the base to each joint
-        t_tail = tail_tension(self._tail_base_n, theta, self.growth.bend_loss)
-        angles = np.fromiter((b.angle for b in self.bodies[a:]), float, len(phi))
-        axes = np.column_stack((np.cos(angles), np.sin(angles)))
-        t_wall = wall_tension(p, r, t_tail, distal_compression(self._contact_forces(a), axes))
-        self._wall_tension = t_wall
-        self._mw_now[a : a + len(phi)] = wrinkling_moment_of_wall(t_wall, r)
-        capacity = compression_capacity(p, r, t_tail)
-        if len(capacity) != len(self._capacity) or np.any(np.abs(capacity - self._capacity) > 1e-3 * (capacity + 1e-3)):
-            for link, c in zip(self.links[a:], capacity.tolist()):
-                link.push.max_force = c
-            self._capacity = capacity
+        if self._tail_base_n is not None:
+            theta = self._frozen_turning + np.cumsum(np.abs(phi))  # turning from the base to each joint
+            self._section_law(a, phi, theta, self._tail_base_n)
         k = self._k_now[a : a + len(phi)]
         moments = joint_moment(phi, k, self._mw_now[a : a + len(phi)])
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -312,7 +307,24 @@ class EversionSim:
                 self._event("kink", joint_mm=round(float(self.nodes[j]) * 1e3, 3), at_band=bool(self._r3[j] < 0.999 * self.design.radius_m**3))
         if self._kinked:  # a joint that unloads well below its kink moment is no longer kinked
             self._kinked = {j for j in self._kinked if j < a or abs(moments[j - a]) >= 0.8 * KINK_MOMENT_FRACTION * mc[j - a]}
-        self._turning = float(theta[-1]) if len(theta) else self._frozen_turning
+        self._turning = self._frozen_turning + float(np.sum(np.abs(phi)))
+
+    def _section_law(self, a: int, phi: np.ndarray, theta: np.ndarray, tail_base_n: float) -> None:
+        """Wall tension, moments and fold capacity of the active joints ``a..`` (section law)."""
+        p = max(self._p_applied, 0.0)
+        r = self._r_cell[a : a + len(phi)]
+        t_tail = tail_tension(tail_base_n, theta, self.growth.bend_loss)
+        angles = np.fromiter((b.angle for b in self.bodies[a:]), float, len(phi))
+        axes = np.column_stack((np.cos(angles), np.sin(angles)))
+        t_wall = wall_tension(p, r, t_tail, distal_compression(self._contact_forces(a), axes))
+        self._wall_tension = t_wall
+        self._mw_now[a : a + len(phi)] = wrinkling_moment_of_wall(t_wall, r)
+        capacity = compression_capacity(p, r, t_tail)
+        if len(capacity) != len(self._capacity) or np.any(np.abs(capacity - self._capacity) > 1e-3 * (capacity + 1e-3)):
+            for link, c in zip(self.links[a:], capacity.tolist()):
+                if link.push is not None:
+                    link.push.max_force = c
+            self._capacity = capacity
 
     def _contact_forces(self, start: int) -> np.ndarray:
         """Wall forces (N) on bodies ``start..``, one row per body: the last step's impulses
@@ -397,20 +409,27 @@ class EversionSim:
         t = self.tip_direction
         total = [0.0, 0.0]
         touching = False
+        frontal = False
 
         def acc(arb):
-            nonlocal touching
+            nonlocal touching, frontal
             imp = arb.total_impulse
             total[0] += imp.x
             total[1] += imp.y
             touching = True
+            n = arb.normal  # from the tip's shape towards the other one
+            if n.x * t[0] + n.y * t[1] > 0.2:
+                frontal = True
 
         body.each_arbiter(acc)
-        k = self.steps % len(self._tip_impulses)
-        self._tip_impulse_sum += np.array(total) - self._tip_impulses[k]
-        self._tip_impulses[k] = total
-        f = self._tip_impulse_sum / (len(self._tip_impulses) * self.cfg.dt_s)
+        window = len(self._tip_impulses)
+        if window == 1:
+            f = np.array(total) / self.cfg.dt_s
+        else:
+            self._tip_impulses[self.steps % window] = total
+            f = self._tip_impulses.sum(axis=0) / (window * self.cfg.dt_s)
         self.tip_contact = f
+        self._frontal = frontal
         self.tip_force = max(0.0, -float(f @ t))
         mag = float(math.hypot(*f))
         self.max_contact_force = max(self.max_contact_force, mag)
@@ -477,6 +496,17 @@ class EversionSim:
                 rho = max(rho, z.reduction * float(z.shape(s_tip)))
         r_tip = self.design.radius_m * (1 - rho)
         return float(self.threshold(rho)), math.pi * r_tip * r_tip
+
+    def _push_tip(self, p: float, p_y: float, area: float) -> None:
+        """Rigid-column model: the everting tip's force on an obstacle ahead,
+        ``A (p exp(-mu_b Theta) - p_y)`` along the tip (a follower load), while a contact lies
+        ahead (its normal within about 78 degrees of the tip axis)."""
+        if self.length >= self.design.length_m or not self._frontal:
+            return
+        f = area * (p * math.exp(-self.growth.bend_loss * self._turning) - p_y)
+        if f > 0:
+            sh = self.shapes[-1]
+            self.bodies[-1].apply_force_at_local_point((f, 0.0), (sh.b.x, 0.0))
 
     def _required_pressure(self, p_y: float, area: float) -> float:
         tail = tail_weight_pressure(self.design.diameter_m, self.design.wall_thickness_m, self.length) if self.vertical_tail else 0.0
@@ -556,13 +586,15 @@ class EversionSim:
             if self.steps % _FREEZE_INTERVAL == 0:
                 self._freeze_check()
             p_y, area = self._tip_threshold()
+            if self._tail_base_n is None:
+                self._push_tip(p, p_y, area)
             self.space.step(dt)
             self.t += dt
             self.steps += 1
             self._tip_reaction()
             v = self.growth.speed(p, self._required_pressure(p_y, area)) if self.length < self.design.length_m else 0.0
             self._grow(v)
-            if v > 0:  # relax after a growth increment (not between a user's own loads)
+            if v > 0 and cfg.section_law:  # relax after a growth increment (not between a user's own loads)
                 self._relax()
             self.growth_speed = v
             self._stall_update(v, dt)
