@@ -284,9 +284,26 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
 
     _check("--radius-mm", args.radius_mm, 20.0, 40.0, "mm")
     _check("--reduction", args.reduction, 0.0, 0.5, "")
+    if args.casing_friction is not None:
+        _check("--casing-friction", args.casing_friction, 0.0, 5.0, "")
     if args.seed < 0:
         raise CLIError(f"--seed = {args.seed!r} is out of range: allowed integers >= 0")
-    trace = trace_ubend(args.radius_mm, args.reduction, args.seed)
+    try:
+        sim = dict(json.loads(args.sim)) if args.sim else {}
+    except (json.JSONDecodeError, TypeError, ValueError) as e:
+        raise CLIError(f"--sim = {args.sim!r}: expected a JSON object of SimConfig fields ({e})") from None
+    from dataclasses import fields
+
+    from evertgym.sim.config import SimConfig
+
+    unknown = sorted(set(sim) - {f.name for f in fields(SimConfig)})
+    if unknown:
+        raise CLIError(f"--sim: unknown SimConfig fields {unknown}")
+    if args.section_law:
+        sim["section_law"] = True
+    SimConfig(**sim)  # range-checked before the trial starts
+    scene_params = {"wall_friction": args.casing_friction} if args.casing_friction is not None else None
+    trace = trace_ubend(args.radius_mm, args.reduction, args.seed, sim=sim or None, scene_params=scene_params)
     if args.plot:
         plot_trace(trace, args.plot)
     if args.json:
@@ -542,6 +559,9 @@ def build_parser() -> argparse.ArgumentParser:
     dg.add_argument("--radius-mm", type=float, default=30.0, help="U-bend inner radius (mm), [20, 40]")
     dg.add_argument("--reduction", type=float, default=0.0, help="band reduction of the 3-band design (0: no bands)")
     dg.add_argument("--seed", type=int, default=0, help="trial number of reproduce ubend (its seed)")
+    dg.add_argument("--section-law", action="store_true", help="simulate with the section law (SimConfig(section_law=True))")
+    dg.add_argument("--sim", default=None, help='SimConfig overrides as JSON, e.g. \'{"bend_loss_per_rad": 0.6}\'')
+    dg.add_argument("--casing-friction", type=float, default=None, help="the U-bend casing's friction factor (default: the family's)")
     dg.add_argument("--plot", default=None, help="write the figure here (PNG)")
     dg.add_argument("--json", action="store_true", help="print the trace as JSON")
     dg.set_defaults(func=cmd_diagnose)

@@ -21,9 +21,11 @@ from evertgym.experiments.trial import GIVE_UP_S, make_trial_env
 from evertgym.sim.diagnostics import section_state
 
 
-def trace_ubend(radius_mm: float, reduction: float = 0.0, seed: int = 0, sim: dict | None = None) -> dict[str, Any]:
-    """The section-law trace of one ``reproduce ubend`` trial (JSON-ready)."""
-    spec = ubend_specs(trials=seed + 1, radii=(radius_mm,), reductions=(reduction,), sim=sim)[seed]
+def trace_ubend(radius_mm: float, reduction: float = 0.0, seed: int = 0, sim: dict | None = None,
+                scene_params: dict | None = None) -> dict[str, Any]:
+    """The section-law trace of one ``reproduce ubend`` trial (JSON-ready); ``sim`` overrides
+    :class:`~evertgym.sim.config.SimConfig` fields, ``scene_params`` the U-bend's parameters."""
+    spec = ubend_specs(trials=seed + 1, radii=(radius_mm,), reductions=(reduction,), sim=sim, scene_params=scene_params)[seed]
     env = make_trial_env(spec)
     policy = make_policy(dict(spec.policy))
     samples: list[dict] = []
@@ -38,6 +40,7 @@ def trace_ubend(radius_mm: float, reduction: float = 0.0, seed: int = 0, sim: di
     info = run_episode(env, policy, int(spec.seed), stop=record)
     bands = [b.position_m * 1e3 for b in env.sim.design.bands]
     return {"radius_mm": radius_mm, "reduction": reduction, "seed": seed, "success": bool(info["success"]),
+            "section_law": env.sim.cfg.section_law, "casing_friction": float(env.scene.params["wall_friction"]),
             "bands_mm": [round(b, 1) for b in bands], "bend_start_mm": float(env.scene.params["pipe_length_mm"]),
             "samples": samples}
 
@@ -56,7 +59,9 @@ def plot_trace(trace: dict[str, Any], path: str | Path) -> Path:
     ax.legend(fontsize=8)
     outcome = "passed" if trace["success"] else "jammed"
     design = "no bands" if trace["reduction"] == 0 else f"3 x {round(trace['reduction'] * 100)}%"
-    ax.set_title(f"U-bend {trace['radius_mm']:g} mm, {design}, trial {trace['seed']}: {outcome}")
+    model = "section law" if trace["section_law"] else "rigid column"
+    ax.set_title(f"U-bend {trace['radius_mm']:g} mm, {design}, trial {trace['seed']} ({model}, casing "
+                 f"{trace['casing_friction']:g}): {outcome}")
     for ax, key, label, vmin, vmax, cmap in ((axes[1], "moment_ratio", "|M| / M_c", 0.0, 1.0, "viridis"),
                                              (axes[2], "wall_tension_n", "T_wall (N)", None, None, "coolwarm")):
         xs, ys, cs = [], [], []

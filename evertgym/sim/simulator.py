@@ -372,20 +372,26 @@ class EversionSim:
     @property
     def wall_tension(self) -> np.ndarray:
         """``T_wall`` (N) of the active joints ``active_start..`` at the last law update
-        (:mod:`evertgym.model.section_law`); negative where the wall would have to push."""
+        (:mod:`evertgym.model.section_law`); negative where the wall would have to push.  The
+        rigid-column model's moments assume the unloaded ``p pi r^2``."""
+        if self._tail_base_n is None:
+            return max(self._p_applied, 0.0) * math.pi * self._r_cell[self.active_start : len(self.bodies)] ** 2
         return self._wall_tension.copy()
 
     @property
     def compression_capacity(self) -> np.ndarray:
         """``N_max = p pi r^2 - T_tail`` (N) of the active joints at the last law update: the
-        compression each carries before it folds axially."""
+        compression each carries before it folds axially (unbounded in the rigid-column model)."""
+        if self._tail_base_n is None:
+            return np.full(len(self.bodies) - self.active_start, math.inf)
         return self._capacity.copy()
 
     @property
     def tip_capacity(self) -> float:
         """The most the wall may push on the tip (N): the smallest compression capacity
         between the tip and the first active joint."""
-        return float(np.min(self._capacity)) if len(self._capacity) else 0.0
+        cap = self.compression_capacity
+        return float(np.min(cap)) if len(cap) else 0.0
 
     @property
     def in_contact(self) -> bool:
