@@ -93,6 +93,8 @@ def test_settings_and_table(tmp_path):
 
 
 @pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="issue 13, blocked: the rigid-column model's U-bend cells move with mass_ratio, "
+                   "inertia_factor and the step (docs/invariance.md); so do the section law's (docs/sim.md)")
 def test_invariance_full_size(tmp_path):
     """Issue 13's criteria at full size (30+ min on 2 cores).  EVERTGYM_INVARIANCE_DIR keeps the
     stores between runs (start it empty after a change to the physics)."""
