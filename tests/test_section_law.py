@@ -7,7 +7,6 @@ import math
 import numpy as np
 import pytest
 
-from evertgym.design import TubeDesign
 from evertgym.experiments.capacity import CASES, max_tip_force
 from evertgym.model.section_law import (
     collapse_moment,
@@ -17,7 +16,7 @@ from evertgym.model.section_law import (
     wall_tension,
     wrinkling_moment,
 )
-from evertgym.sim import EversionSim, SimConfig
+from evertgym.sim import SimConfig
 
 LAW = SimConfig(section_law=True)
 
@@ -74,12 +73,9 @@ def test_tip_slides_outside_the_friction_cone_and_buckles_inside_it(wall_deg, de
     cone) the wall takes the push, the wall tension behind the tip falls, the body loses its
     bending capacity and buckles sideways, away from the wall (vine bodies buckle under axial
     load: Coad et al., RA-L 2020); the tip never takes more than the tube can carry."""
-    from test_sim import _InclinedWall  # the same wall as the rigid-column model's test
+    from test_sim import grow_into_inclined_wall  # the rigid-column model's test, with the section law
 
-    sim = EversionSim(TubeDesign(length_m=0.3), scene=_InclinedWall(0.1, wall_deg), config=LAW)
-    sim.set_pressure_command(3000.0)
-    sim.run(4.0)
-    heading = math.degrees(math.atan2(sim.tip_direction[1], sim.tip_direction[0]))
+    sim, heading = grow_into_inclined_wall(wall_deg, LAW)
     if deflects:
         assert sim.length == pytest.approx(0.3) and heading == pytest.approx(wall_deg, abs=10.0)
     else:
