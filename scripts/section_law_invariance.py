@@ -13,6 +13,7 @@ killed run resume::
 from __future__ import annotations
 
 import argparse
+import json
 import time
 from pathlib import Path
 
@@ -31,11 +32,12 @@ def main() -> None:
     ap.add_argument("--reductions", default="0,0.1", help="band reductions (0: no bands)")
     ap.add_argument("--trials", type=int, default=12)
     ap.add_argument("--workers", type=int, default=None)
+    ap.add_argument("--sim", default="{}", help="further SimConfig overrides as JSON (every setting)")
     ap.add_argument("--out", default="runs/section_law_invariance")
     args = ap.parse_args()
     radii = [float(r) for r in args.radii.split(",")]
     reds = [float(r) for r in args.reductions.split(",")]
-    base = {"section_law": True, "bend_loss_per_rad": args.bend_loss, "tail_drag_fraction": args.tail}
+    base = {"section_law": True, "bend_loss_per_rad": args.bend_loss, "tail_drag_fraction": args.tail, **json.loads(args.sim)}
     cells: dict[str, dict[tuple[float, float], int]] = {}
     for name, knob in KNOBS:
         t0 = time.perf_counter()
@@ -50,7 +52,8 @@ def main() -> None:
         print(f"{name}: done in {time.perf_counter() - t0:.0f} s", flush=True)
     ref = cells["reference"]
     head = [f"{'no bands' if red == 0 else f'{round(red * 100)}%'} {r:g}" for red in reds for r in radii]
-    print(f"\nsection law, casing {args.casing_friction:g}, mu_b {args.bend_loss:g}, f_tail {args.tail:g}; passes of {args.trials}")
+    print(f"\nsection law, casing {args.casing_friction:g}, mu_b {args.bend_loss:g}, f_tail {args.tail:g}, {args.sim}; "
+          f"passes of {args.trials}")
     print("| setting | " + " | ".join(head) + " | largest change |")
     print("|---|" + "---:|" * (len(head) + 1))
     for name, _ in KNOBS:

@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+from evertgym.design import TubeDesign
 from evertgym.experiments.capacity import CASES, max_tip_force
 from evertgym.model.section_law import (
     collapse_moment,
@@ -16,7 +17,7 @@ from evertgym.model.section_law import (
     wall_tension,
     wrinkling_moment,
 )
-from evertgym.sim import SimConfig
+from evertgym.sim import EversionSim, SimConfig
 
 LAW = SimConfig(section_law=True)
 
@@ -82,3 +83,25 @@ def test_tip_slides_outside_the_friction_cone_and_buckles_inside_it(wall_deg, de
         assert abs(heading - wall_deg) > 45.0  # it did not turn along the wall
         assert sim.tip_position[0] < 0.1  # nor go through it
     assert sim.max_contact_force <= 1.5 * 3000.0 * math.pi * 0.02**2
+
+
+@pytest.mark.parametrize("field, value", [("relax_force_n", -1.0), ("relax_speed_m_per_s", -0.1), ("max_relax_steps", -5),
+                                          ("force_window_s", 0.0), ("tail_drag_fraction", 1.5)])
+def test_section_law_settings_are_range_checked(field, value):
+    with pytest.raises(ValueError, match=f"{field} = .* is out of range"):
+        SimConfig(section_law=True, **{field: value})
+
+
+def test_force_criterion_relaxes_the_tip_region_to_the_tolerance():
+    """After a growth step under ``relax_force_n`` the tip region's implied unbalanced force is
+    below the tolerance, unless the step cap was reached."""
+    cfg = SimConfig(section_law=True, relax_force_n=0.05, max_relax_steps=1000)
+    from test_sim import _InclinedWall
+
+    sim = EversionSim(TubeDesign(length_m=0.3), scene=_InclinedWall(0.1, 60.0), config=cfg)
+    sim.set_pressure_command(3000.0)
+    for _ in range(1500):
+        sim.step(1)
+        if sim.growth_speed > 0:
+            assert sim._tip_region_residual() <= 0.05
+    assert sim.relax_steps > 0

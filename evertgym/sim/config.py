@@ -51,8 +51,9 @@ class SimConfig:
     Quasi-static growth (section law)
         After each growth increment the chain is stepped, without advancing time, until its
         active segments move slower than ``relax_speed_m_per_s`` (at most ``max_relax_steps``
-        steps; 0 m/s disables it), so outcomes do not depend on the scaled masses
-        (:meth:`EversionSim._relax`).
+        steps; 0 m/s disables it); with ``relax_force_n`` > 0 the criterion is instead the
+        unbalanced force the motion implies (``m g |v|``, ``I g |w| / ds``).  Neither yet makes
+        outcomes independent of the scaled masses (docs/sim.md) (:meth:`EversionSim._relax`).
     Contact forces (section law)
         ``force_window_s``: the tip's wall force is its impulse over this window divided by
         the window (a quasi-static force, the same for any step; :meth:`EversionSim._tip_reaction`).
@@ -86,6 +87,7 @@ class SimConfig:
     force_window_s: float = 0.02
     relax_speed_m_per_s: float = 0.02
     relax_length_m: float = 0.05
+    relax_force_n: float = 0.0
     max_relax_steps: int = 50
 
     def __post_init__(self) -> None:
@@ -115,6 +117,7 @@ class SimConfig:
         _check("relax_speed_m_per_s", self.relax_speed_m_per_s, 0.0, 10.0)
         _check("max_relax_steps", self.max_relax_steps, 0, 100000)
         _check("relax_length_m", self.relax_length_m, 0.0, 100.0)
+        _check("relax_force_n", self.relax_force_n, 0.0, 100.0)
         if self.max_growth_speed_m_per_s * self.dt_s > 0.2 * self.segment_length_m:
             raise ValueError(
                 f"max_growth_speed_m_per_s * dt_s = {self.max_growth_speed_m_per_s * self.dt_s:g} m per step is out of "

@@ -119,6 +119,7 @@ class EversionSim:
         self.base = np.asarray(base, dtype=float)
         self.base_angle = math.atan2(d[1], d[0])
         self._beta = cfg.damping**cfg.dt_s  # spring impulse kept after Chipmunk's damping
+        self._damping_rate = -math.log(cfg.damping)  # velocity decay rate (1/s)
 
         # material tables over all nodes of the body (joint j at s_j = j ds)
         ds = cfg.segment_length_m
@@ -608,11 +609,17 @@ class EversionSim:
                 self._rest_pressure = p
         self._check_finite()
 
-    def _tip_region_speed(self) -> float:
-        """Largest speed (m/s) of the segments within ``cfg.relax_length_m`` of the tip, their
-        ends included (``|v| + |w| ds``)."""
+    def _tip_region_residual(self) -> float:
+        """How far the segments within ``cfg.relax_length_m`` of the tip are from rest: with
+        ``relax_force_n`` > 0 the largest unbalanced force (N) their motion implies under
+        Chipmunk's damping rate ``g`` (``m g |v|``, and ``I g |w| / ds`` for the rotation), which
+        does not depend on the scaled masses; else their largest speed (m/s, ``|v| + |w| ds``)."""
         ds = self.ds
         first = max(self.active_start, len(self.bodies) - max(1, int(round(self.cfg.relax_length_m / ds))))
+        if self.cfg.relax_force_n > 0:
+            g = self._damping_rate
+            return max((g * (b.mass * b.velocity.length + b.moment * abs(b.angular_velocity) / ds) for b in self.bodies[first:]),
+                       default=0.0)
         return max((b.velocity.length + abs(b.angular_velocity) * ds for b in self.bodies[first:]), default=0.0)
 
     def _relax(self) -> None:
@@ -627,10 +634,11 @@ class EversionSim:
         the step.  Relaxing to rest before the next increment makes every growth increment a
         sequence of equilibria, whatever those settings."""
         cfg = self.cfg
-        if cfg.relax_speed_m_per_s <= 0:
+        tol = cfg.relax_force_n if cfg.relax_force_n > 0 else cfg.relax_speed_m_per_s
+        if tol <= 0:
             return
         for k in range(cfg.max_relax_steps):
-            if self._tip_region_speed() <= cfg.relax_speed_m_per_s:
+            if self._tip_region_residual() <= tol:
                 return
             if k % cfg.law_interval == cfg.law_interval - 1:
                 self._update_joint_law()
