@@ -285,10 +285,9 @@ class EversionSim:
         return 2.0 * self._mw_now[start : len(self.bodies)]
 
     def _update_joint_law(self) -> None:
-        """The section law at the active joints (:mod:`evertgym.model.section_law`): wall
-        tension from the pressure, the tail and the compression the contacts distal to each
-        joint put on it; the wrinkling and collapse moments and the fold capacity it sets;
-        then each joint's secant stiffness from the non-linear law, and kink events."""
+        """Secant stiffness of the active joints from the non-linear law, and kink events; under
+        the section law the wrinkling moments and fold capacities are first updated from the
+        wall tension (:meth:`_section_law`)."""
         a = self.active_start
         phi = self.joint_angles(a)
         if self._tail_base_n is not None:
@@ -331,18 +330,17 @@ class EversionSim:
         """Wall forces (N) on bodies ``start..``, one row per body: the last step's impulses
         over the step, and for the tip its windowed force (:meth:`_tip_reaction`)."""
         out = np.zeros((len(self.bodies) - start, 2))
-        dt = self.cfg.dt_s
+        row = out[0]
+
+        def acc(arb: pymunk.Arbiter) -> None:
+            imp = arb.total_impulse
+            row[0] += imp.x
+            row[1] += imp.y
+
         for i, body in enumerate(self.bodies[start:]):
-            total = [0.0, 0.0]
-
-            def acc(arb: pymunk.Arbiter, total: list[float] = total) -> None:
-                imp = arb.total_impulse
-                total[0] += imp.x
-                total[1] += imp.y
-
+            row = out[i]
             body.each_arbiter(acc)
-            out[i] = total
-        out /= dt
+        out /= self.cfg.dt_s
         out[-1] = self.tip_contact
         return out
 
@@ -623,16 +621,15 @@ class EversionSim:
         return max((b.velocity.length + abs(b.angular_velocity) * ds for b in self.bodies[first:]), default=0.0)
 
     def _relax(self) -> None:
-        """Quasi-static growth: after material is added, step the chain without advancing time,
-        growth or the regulator until every active segment is slower than
-        ``cfg.relax_speed_m_per_s`` (at most ``cfg.max_relax_steps`` steps).
+        """Quasi-static growth (section law): after material is added, step the chain without
+        advancing time, growth or the regulator until the tip region is at rest by
+        :meth:`_tip_region_residual` (at most ``cfg.max_relax_steps`` steps).
 
-        The scaled masses make the chain's dynamics fictitious; what the robot does must not
-        depend on them.  Growth at up to 0.1 m/s drives the tip into walls faster than the chain
-        relaxes (its damping time is about 70 ms), so without this the outcome of a first contact
-        is decided by a dynamic transient whose course changes with the mass, the inertia and
-        the step.  Relaxing to rest before the next increment makes every growth increment a
-        sequence of equilibria, whatever those settings."""
+        Growth at up to 0.1 m/s drives the tip into walls faster than the chain relaxes (its
+        damping time is about 70 ms), so the outcome of a first contact is decided by a
+        transient whose course changes with the scaled mass, the inertia and the step.  This
+        relaxation is meant to remove that dependence; measured, it does not yet (docs/sim.md:
+        U-bend cells still move by up to 12 of 12 with ``mass_ratio`` or the step)."""
         cfg = self.cfg
         tol = cfg.relax_force_n if cfg.relax_force_n > 0 else cfg.relax_speed_m_per_s
         if tol <= 0:
