@@ -73,7 +73,7 @@ def test_the_paper_bands_sit_behind_the_free_span_at_a_ubend_jam():
         assert 0.0 <= band["peak_moment_ratio"] < 1.0
 
 
-@pytest.mark.xfail(strict=True, reason="open (issue 6): 10% bands jam in the 30 mm U-bend like the bare robot")
+@pytest.mark.xfail(strict=True, reason="issue 14, blocked (earlier issue 6): 10% bands jam in the 30 mm U-bend like the bare robot")
 def test_ten_percent_bands_pass_the_30mm_ubend():
     """The paper's Fig. 4d: 3 x 10% bands pass the 30 mm U-bend consistently (>= 90%).
     Known miss: 0 of 12 (docs/ubend_jams.md)."""
@@ -133,7 +133,7 @@ def test_colon_specs_and_json_contract(tmp_path, capsys):
     assert jam["pressure_margin_kpa"] < 0.0 and jam["heading_error_deg"] < 0.0
 
 
-@pytest.mark.xfail(strict=True, reason="open (issue 6): the banded robot also stalls at the colon bend")
+@pytest.mark.xfail(strict=True, reason="issue 14, blocked (earlier issue 6): the banded robot also stalls at the colon bend")
 def test_banded_robot_passes_the_colon_bend(tmp_path, capsys):
     """The paper's case study: the robot with 3 x 10% bands passes the bend below 8 kPa.
 
