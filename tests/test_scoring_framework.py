@@ -339,6 +339,28 @@ def test_process_pool_survives_a_worker_crash(tmp_path):
     assert all(r.result == check_result(fake_trial(r.spec)) for r in recs) and len(recs) == 12
 
 
+def test_closing_the_process_backend_early_ends_its_workers():
+    """A runner that stops reading (an exception, Ctrl-C) leaves no worker behind, even with
+    trials still running (the pool must end without waiting for them)."""
+    import psutil
+
+    from evertgym.scoring.backends import process_backend
+
+    specs = make_specs(6, 0.0)[:1] + make_specs(6, 30.0)[1:]
+    gen = process_backend(fake_trial, specs, workers=2)
+    spec, outcome = next(gen)
+    assert spec.index == 0 and outcome.error is None
+    # the workers are the fork server's children (the fork server itself stays, as Python's does)
+    servers = [c for c in psutil.Process().children() if "forkserver" in " ".join(c.cmdline())]
+    workers = [w for server in servers for w in server.children()]
+    assert len(workers) == 2
+    t0 = time.monotonic()
+    gen.close()
+    assert time.monotonic() - t0 < 10  # did not wait for the 30 s trial in flight
+    gone, alive = psutil.wait_procs(workers, timeout=5)
+    assert not alive
+
+
 def test_killed_process_run_resumes_to_the_clean_serial_result(tmp_path):
     specs = make_specs(40, 0.05)
     path = tmp_path / "killed.sqlite"

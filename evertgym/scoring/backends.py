@@ -7,17 +7,17 @@ back as an :class:`Outcome` with the error text, so one failing trial never stop
 Closing the generator early (an exception or Ctrl-C in the runner) cancels the trials not
 yet started and shuts the pool or cluster down.
 
-Process backend: a :class:`concurrent.futures.ProcessPoolExecutor` started with the
-``forkserver`` method where the platform has it (Linux), else ``spawn`` (macOS, Windows).
-Plain ``fork`` copies the parent's threads' locks in whatever state they are in (tqdm's
-monitor thread, a Dask client, BLAS pools), which can deadlock a child; the fork server is a
-clean single-threaded process from which workers fork cheaply (it is Python 3.14's default
-on Linux).  The fork server preloads this module and ``trial_fn``'s module, so workers start
-with the package already imported.  ``trial_fn`` must be picklable by reference: a top-level
-function of an importable module (or of a script guarded by ``if __name__ == "__main__":``).
-If a worker process dies (segfault, ``os._exit``, the OOM killer) the pool breaks; the
-backend restarts it and reruns each trial that was in flight alone, so only a trial that
-kills its worker by itself comes back as an error.
+Process backend: ``workers`` worker processes, each running one trial at a time over its
+own pipe, started with the ``forkserver`` method where the platform has it (Linux), else
+``spawn`` (macOS, Windows).  Plain ``fork`` copies the parent's threads' locks in whatever
+state they are in (tqdm's monitor thread, a Dask client, BLAS pools), which can deadlock a
+child; the fork server is a clean single-threaded process from which workers fork cheaply
+(it is Python 3.14's default on Linux).  The fork server preloads this module and
+``trial_fn``'s module, so workers start with the package already imported.  ``trial_fn``
+must be picklable by reference: a top-level function of an importable module (or of a script
+guarded by ``if __name__ == "__main__":``).  If a worker process dies (segfault,
+``os._exit``, the OOM killer) only its trial is affected: it is rerun alone, so only a trial
+that kills its worker by itself comes back as an error.
 
 Dask backend: :class:`dask.distributed.Client` connected to ``address`` (a running
 scheduler, e.g. ``"tcp://host:8786"``, whose workers have evertgym installed), or to a fresh
@@ -32,13 +32,12 @@ import multiprocessing
 import multiprocessing.connection
 import os
 import pickle
+import signal
 import threading
 import time
 import traceback
 from collections import deque
 from collections.abc import Callable, Generator, Sequence
-from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
-from concurrent.futures.process import BrokenProcessPool
 from contextlib import ExitStack
 from dataclasses import dataclass
 from typing import Any
@@ -109,11 +108,11 @@ def _mp_context(trial_fn: TrialFn) -> multiprocessing.context.BaseContext:
 
 
 def _exit_with_parent() -> None:
-    """Pool worker initializer: end this worker when the runner process dies.
+    """In a worker: end this process when the runner process dies.
 
-    ProcessPoolExecutor workers otherwise outlive a killed runner (SIGKILL, the OOM killer),
-    idle and holding memory.  ``parent_process().sentinel`` becomes ready when the runner's
-    end of the worker's pipe closes, i.e. when the runner is gone.
+    Workers otherwise outlive a killed runner (SIGKILL, the OOM killer) until their trial
+    ends.  ``parent_process().sentinel`` becomes ready when the runner's end of the
+    worker's pipe closes, i.e. when the runner is gone.
     """
     parent = multiprocessing.parent_process()
     if parent is None:  # not a child process: nothing to watch
@@ -127,15 +126,73 @@ def _exit_with_parent() -> None:
     threading.Thread(target=watch, name="exit-with-parent", daemon=True).start()
 
 
+def _worker_main(conn: multiprocessing.connection.Connection, trial_fn: TrialFn) -> None:
+    """A pool worker: run each spec received on ``conn`` and send its :class:`Outcome` back.
+
+    Ends when the runner sends ``None`` or closes its end.  SIGINT is ignored: Ctrl-C in a
+    terminal reaches the whole process group, and the runner, which gets it too, ends the
+    workers itself.
+    """
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _exit_with_parent()
+    while True:
+        try:
+            spec = conn.recv()
+        except (EOFError, OSError):
+            return
+        if spec is None:
+            return
+        outcome = call_trial(trial_fn, spec)
+        try:
+            conn.send(outcome)
+        except (pickle.PicklingError, TypeError, AttributeError) as exc:  # an unpicklable result
+            conn.send(Outcome(None, f"the trial's result cannot be sent back ({type(exc).__name__}: {exc})",
+                              None, outcome.wall_s))
+
+
+class _Worker:
+    """One worker process and the parent's end of its pipe; runs one trial at a time."""
+
+    def __init__(self, ctx: Any, trial_fn: TrialFn) -> None:
+        self.conn, child = ctx.Pipe()
+        self.proc = ctx.Process(target=_worker_main, args=(child, trial_fn), daemon=True, name="evertgym-trial")
+        self.proc.start()
+        child.close()
+        self.spec: TrialSpec | None = None  # the trial it runs, None when idle
+        self.alone = False  # whether that trial was the only one running
+
+    def end(self, kill: bool) -> None:
+        """Stop the worker: ask it to exit (idle) or kill it (``kill``, a trial running), then reap it."""
+        if not kill:
+            try:
+                self.conn.send(None)
+            except (OSError, ValueError):
+                kill = True
+        self.conn.close()
+        if kill and self.proc.is_alive():
+            self.proc.kill()
+        self.proc.join(5)
+        if self.proc.is_alive():  # did not take the hint within 5 s
+            self.proc.kill()
+            self.proc.join()
+
+
+_DIED = ("its worker process died while it ran alone (a crash, os._exit or the out-of-memory killer)")
+
+
 def process_backend(
     trial_fn: TrialFn, specs: Sequence[TrialSpec], workers: int | None = None
 ) -> Generator[tuple[TrialSpec, Outcome], None, None]:
     """Run the trials in a local pool of ``workers`` processes (default: the CPUs available).
 
-    At most ``workers`` trials are submitted at a time, so when a worker dies the suspects
-    are exactly the trials in flight.  The pool is then restarted and each suspect rerun
-    alone: one that kills its worker again is reported as failed, the others run normally.
-    A trial that always crashes therefore cannot block a resumed sweep.
+    Each worker runs one trial at a time over its own pipe, and the runner watches each
+    worker's pipe and its process sentinel, so a worker that dies names the one trial it
+    ran; the other trials go on.  A trial whose worker died while others ran is rerun
+    alone (the out-of-memory killer may have picked the wrong process): one that kills its
+    worker again is reported as failed.  A trial that always crashes therefore cannot block
+    a resumed sweep.  The runner holds no threads or feeder queues (unlike
+    :class:`concurrent.futures.ProcessPoolExecutor`, whose shutdown after a worker crash can
+    deadlock on CPython 3.11, gh-125451), so ending the pool cannot hang.
     """
     try:
         pickle.dumps(trial_fn)
@@ -145,51 +202,58 @@ def process_backend(
             "allowed a top-level function of an importable module"
         ) from None
     ctx = _mp_context(trial_fn)
-    workers = workers or available_cpus()
+    n_workers = workers or available_cpus()
     queue: deque[TrialSpec] = deque(specs)
     suspects: deque[TrialSpec] = deque()
-    running: dict[Future, tuple[TrialSpec, bool]] = {}  # future -> (spec, ran alone)
-    pool = None
-    try:
-        while queue or suspects or running:
-            if pool is None:
-                pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_exit_with_parent)
-            broken = False
+    idle: list[_Worker] = []
+    busy: list[_Worker] = []
+
+    def start(spec: TrialSpec, alone: bool) -> None:
+        while True:
+            w = idle.pop() if idle else _Worker(ctx, trial_fn)
             try:
-                if suspects and not running:
-                    fut = pool.submit(call_trial, trial_fn, suspects[0])  # popped once submitted
-                    running[fut] = (suspects.popleft(), True)
-                while not suspects and queue and len(running) < workers:
-                    fut = pool.submit(call_trial, trial_fn, queue[0])
-                    running[fut] = (queue.popleft(), False)
-            except (BrokenProcessPool, OSError):
-                # a worker died between the last wait and this submit: the spec stays queued,
-                # the trials in flight are collected below and the pool restarts
-                broken = True
-            done, _ = wait(running, return_when=FIRST_COMPLETED)
-            while done:
-                for fut in done:
-                    spec, alone = running.pop(fut)
+                w.conn.send(spec)
+            except OSError:  # it died while idle: replace it
+                w.end(kill=True)
+                continue
+            w.spec, w.alone = spec, alone
+            busy.append(w)
+            return
+
+    try:
+        while queue or suspects or busy:
+            if suspects and not busy:
+                start(suspects.popleft(), alone=True)
+            while not suspects and queue and len(busy) < n_workers:
+                start(queue.popleft(), alone=False)
+            ready = set(multiprocessing.connection.wait([w.conn for w in busy] + [w.proc.sentinel for w in busy]))
+            for w in [w for w in busy if w.conn in ready or w.proc.sentinel in ready]:
+                spec = w.spec
+                assert spec is not None
+                busy.remove(w)
+                outcome: Outcome | None = None
+                if w.conn in ready:
                     try:
-                        outcome = fut.result()
-                    except BrokenProcessPool:
-                        broken = True
-                        if not alone:
-                            suspects.append(spec)
-                            continue
-                        outcome = Outcome(None, "its worker process died while it ran alone (a crash, "
-                                                "os._exit or the out-of-memory killer)", None, None)
-                    except Exception as exc:
+                        outcome = w.conn.recv()
+                    except (EOFError, OSError):
+                        outcome = None  # it died before it answered
+                    except Exception as exc:  # an answer that cannot be read back
                         outcome = _failed(exc)
+                if outcome is not None:
+                    w.spec = None
+                    idle.append(w)
                     yield spec, outcome
-                # a broken pool fails every trial in flight: collect them all before restarting
-                done = wait(running)[0] if broken else set()
-            if broken:
-                pool.shutdown(wait=True)
-                pool = None
+                    continue
+                w.end(kill=True)
+                if w.alone:
+                    yield spec, Outcome(None, _DIED, None, None)
+                else:
+                    suspects.append(spec)
     finally:
-        if pool is not None:
-            pool.shutdown(wait=True, cancel_futures=True)
+        for w in busy:
+            w.end(kill=True)
+        for w in idle:
+            w.end(kill=False)
 
 
 def dask_backend(
