@@ -2,7 +2,7 @@
 
     evertgym reproduce stiffness [--json] [--plot docs/stiffness_fig3.png] [--no-sim]
     evertgym reproduce eversion [--json] [--step-kpa 0.01]
-    evertgym bench env [--json] [--steps 500] [--env ID]
+    evertgym bench env [--json] [--steps 500] [--env ID] [--against REV [--repeats 5]]
     evertgym bench pool [--trials 16] [--trial-s 0.3] [--real] [--no-dask] [--json]
     evertgym stiffness [--length-mm L] [--bands-from-tip-mm 50,100 --reduction 0.3]
                        [--pressure-kpa 6.9] [--displacement-mm D] [--design FILE] [--json]
@@ -264,10 +264,28 @@ def cmd_bench_env(args: argparse.Namespace) -> int:
 
     if hasattr(os, "sched_setaffinity") and args.one_core:
         os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
-    if not (1 <= args.steps <= 10**7):
-        raise CLIError(f"--steps = {args.steps} is out of range: allowed [1, 1e7]")
+    steps = args.steps if args.steps is not None else (200 if args.against else 500)
+    if not (1 <= steps <= 10**7):
+        raise CLIError(f"--steps = {steps} is out of range: allowed [1, 1e7]")
+    if not (1 <= args.repeats <= 100):
+        raise CLIError(f"--repeats = {args.repeats} is out of range: allowed [1, 100]")
     ids = args.env or register_envs()
+    unknown = [e for e in ids if e not in register_envs()]
+    if unknown:
+        raise CLIError(f"--env = {unknown[0]!r} is not an evertgym env: allowed {', '.join(register_envs())}")
     from tqdm import tqdm
+
+    if args.against:
+        from evertgym.bench.against import BuildError, bench_against, format_against
+
+        with tqdm(total=len(ids) * 2 * args.repeats, desc="bench env --against", unit="run", disable=args.json) as bar:
+            try:
+                result = bench_against(args.against, ids, steps, args.repeats, progress=bar.update)
+            except BuildError as e:
+                raise CLIError(str(e)) from None
+        print(dumps(result) if args.json else "\n".join(format_against(result)))
+        return 0
+    args.steps = steps
 
     rows = [bench_env(env_id, args.steps) for env_id in tqdm(ids, desc="bench env", unit="env", disable=args.json)]
     if args.json:
@@ -690,7 +708,10 @@ def build_parser() -> argparse.ArgumentParser:
     bo.add_argument("--json", action="store_true", help=_JSON_HELP)
     bo.set_defaults(func=cmd_bench_pool)
     be = _sub(bench_sub, "env", "env steps per second per registered id (random actions, one core)")
-    be.add_argument("--steps", type=int, default=500, help="env steps per id, [1, 1e7]")
+    be.add_argument("--steps", type=int, default=None, help="env steps per id and run, [1, 1e7] (default 500; 200 with --against)")
+    be.add_argument("--against", metavar="REV", help="compare with git revision REV side by side on one core "
+                                                    "(alternating runs, best of --repeats each; prints both and the ratio)")
+    be.add_argument("--repeats", type=int, default=5, help="runs per build and id with --against, [1, 100]")
     be.add_argument("--env", action="append", help="an env id (repeatable); default: every registered id")
     be.add_argument("--no-pin", dest="one_core", action="store_false", help="do not pin the process to one core")
     be.add_argument("--json", action="store_true", help=_JSON_HELP)

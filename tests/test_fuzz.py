@@ -196,6 +196,7 @@ def _fuzz_and_run(worker, kind, data):
 
 
 @pytest.mark.slow
+@pytest.mark.timeout(7200)
 @SLOW
 @given(designs)
 def test_fuzz_slow_designs(worker, data):
@@ -203,6 +204,7 @@ def test_fuzz_slow_designs(worker, data):
 
 
 @pytest.mark.slow
+@pytest.mark.timeout(7200)
 @SLOW
 @given(scene_specs)
 def test_fuzz_slow_scene_specs(worker, data):
@@ -210,6 +212,7 @@ def test_fuzz_slow_scene_specs(worker, data):
 
 
 @pytest.mark.slow
+@pytest.mark.timeout(7200)
 @SLOW
 @given(env_kwargs)
 def test_fuzz_slow_env_kwargs(worker, data):
