@@ -304,15 +304,12 @@ class EversionEnv(gym.Env):
         sim = self.sim
         sim.set_pressure_command(self.command_pa)
         n = max(1, int(round(self.control_dt / sim.cfg.dt_s)))
-        p_sum, f_max = 0.0, 0.0
-        for _ in range(n):
-            sim.step(1)
-            p_sum += sim.pressure
-            f_max = max(f_max, float(math.hypot(*sim.tip_contact)))
+        sim.step(n)
+        f_max = sim.step_max_contact_force
         s_new = self._tip_arclength()
         ds = s_new - self._s_tip
         self._s_tip = s_new
-        p_mean = p_sum / n
+        p_mean = sim.step_mean_pressure
         reached = s_new >= self.scene.goal_arclength
         terms = {
             "progress": self.w["progress"] * ds / 0.01,

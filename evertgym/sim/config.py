@@ -28,7 +28,9 @@ class SimConfig:
     Active set
         Segments more than ``active_length_m`` behind the tip whose mean speed over each
         50-step check stayed below ``freeze_speed_m_per_s`` for ``freeze_time_s`` become
-        static (leave the active set).
+        static (leave the active set).  With ``dormant_walls`` (opt-in), compliant wall
+        pieces farther than ``wall_wake_margin_m`` from every active segment's surface and at
+        rest sleep (static, out of the solver) until one comes near (:mod:`evertgym.sim.dormant`).
     Physics
         ``wall_friction``: Coulomb coefficient between the everted body and a wall: the
         everted body is laid down and does not slide along the walls, so it is high.
@@ -89,6 +91,8 @@ class SimConfig:
     relax_length_m: float = 0.05
     relax_force_n: float = 0.0
     max_relax_steps: int = 50
+    dormant_walls: bool = False
+    wall_wake_margin_m: float = 0.03
 
     def __post_init__(self) -> None:
         _check("segment_length_m", self.segment_length_m, 0.0005, 0.05, lo_open=False)
@@ -118,6 +122,9 @@ class SimConfig:
         _check("max_relax_steps", self.max_relax_steps, 0, 100000)
         _check("relax_length_m", self.relax_length_m, 0.0, 100.0)
         _check("relax_force_n", self.relax_force_n, 0.0, 100.0)
+        _check("wall_wake_margin_m", self.wall_wake_margin_m, 0.0, 100.0)
+        if not isinstance(self.dormant_walls, bool):
+            raise ValueError(f"dormant_walls = {self.dormant_walls!r} is out of range: allowed true or false")
         if self.max_growth_speed_m_per_s * self.dt_s > 0.2 * self.segment_length_m:
             raise ValueError(
                 f"max_growth_speed_m_per_s * dt_s = {self.max_growth_speed_m_per_s * self.dt_s:g} m per step is out of "

@@ -45,8 +45,10 @@ from evertgym.model.pressure import KINK_MOMENT_FRACTION, InflatedBeamLaw
 from evertgym.model.section import TubeSection
 from evertgym.model.section_law import compression_capacity, distal_compression, tail_tension, wall_tension
 from evertgym.model.section_law import wrinkling_moment as wrinkling_moment_of_wall
+from evertgym.sim.chipmunk import arbiter_impulses, body_angles, set_rotary_stiffness, set_spring_stiffness
 from evertgym.sim.config import SimConfig
 from evertgym.sim.discretize import hat_compliance, joint_moment, segment_inertia
+from evertgym.sim.dormant import WALL_REST_SPEED_M_PER_S, DormantWalls
 from evertgym.sim.growth import GrowthLaw, PressureRegulator
 from evertgym.sim.links import Link, make_link
 
@@ -111,6 +113,9 @@ class EversionSim:
         space.collision_bias = (1.0 - 0.2) ** (1.0 / cfg.dt_s)
         self.scene = scene
         self.scene_handles = scene.build(space, dt=cfg.dt_s) if scene is not None else None
+        wall_bodies = getattr(self.scene_handles, "bodies", None)  # compliant wall pieces (an evertgym scene's handles)
+        self._dormant = (DormantWalls(space, list(wall_bodies), cfg.wall_wake_margin_m, WALL_REST_SPEED_M_PER_S)
+                         if cfg.dormant_walls and wall_bodies else None)
         if base is None:
             base = tuple(getattr(scene, "entry", (0.0, 0.0)))
         if direction is None:
@@ -138,6 +143,7 @@ class EversionSim:
         self._radius_fine = (seg_s, self._ref_section.radius(seg_s))
 
         self.threshold = threshold or EversionThreshold.calibrated()
+        self._bare_threshold = (float(self.threshold(0.0)), math.pi * design.radius_m * design.radius_m)
         self.growth = GrowthLaw(self.threshold, cfg.growth_gain_m_per_s_per_pa, cfg.bend_loss_per_rad, cfg.max_growth_speed_m_per_s)
         self.regulator = PressureRegulator(cfg.regulator_tau_s)
         self.vertical_tail = vertical_tail
@@ -168,6 +174,9 @@ class EversionSim:
         self.growth_speed = 0.0
         self.tip_force = 0.0
         self.tip_contact = np.zeros(2)
+        self._tip_force_norm = 0.0  # |tip_contact| (N)
+        self._step_mean_pressure = 0.0
+        self._step_max_contact = 0.0
         window = int(round(cfg.force_window_s / cfg.dt_s)) if cfg.section_law else 1
         self._tip_impulses = np.zeros((max(1, window), 2))  # ring buffer (N s)
         self.max_contact_force = 0.0
@@ -262,14 +271,15 @@ class EversionSim:
         self._mw_now = 0.5 * max(p, 0.0) * math.pi * self._r3[:n]
         self._p_applied = p
         beta = self._beta
-        for j in range(self.active_start, n):
-            self.links[j].shear.stiffness = scale / self._cs_ref[j] / beta
+        cs = self._cs_ref
+        a = self.active_start
+        set_spring_stiffness((link.shear for link in self.links[a:n]), [scale / cs[j] / beta for j in range(a, n)])
         self._update_joint_law()
 
     def joint_angles(self, start: int = 0) -> np.ndarray:
         """Relative rotation of joints ``start..`` (rad); joint 0 is measured against the clamp."""
         first = start - 1 if start > 0 else 0
-        ang = np.fromiter((b.angle for b in self.bodies[first:]), float, len(self.bodies) - first)
+        ang = body_angles(self.bodies[first:])
         if start == 0:
             return ang - np.concatenate(([self.base_angle], ang[:-1]))
         return ang[1:] - ang[:-1]
@@ -297,8 +307,7 @@ class EversionSim:
         moments = joint_moment(phi, k, self._mw_now[a : a + len(phi)])
         with np.errstate(divide="ignore", invalid="ignore"):
             secant = np.where(np.abs(phi) > 1e-12, moments / phi, k) / self._beta
-        for spring, kk in zip(self.springs[a:], secant.tolist()):
-            spring.stiffness = kk
+        set_rotary_stiffness(self.springs[a:], secant.tolist())
         mc = 2.0 * self._mw_now[a : a + len(phi)]
         kinked = np.nonzero(np.abs(moments) >= KINK_MOMENT_FRACTION * mc)[0] + a if np.any(mc > 0) else ()
         for j in kinked:
@@ -314,7 +323,7 @@ class EversionSim:
         p = max(self._p_applied, 0.0)
         r = self._r_cell[a : a + len(phi)]
         t_tail = tail_tension(tail_base_n, theta, self.growth.bend_loss)
-        angles = np.fromiter((b.angle for b in self.bodies[a:]), float, len(phi))
+        angles = body_angles(self.bodies[a : a + len(phi)])
         axes = np.column_stack((np.cos(angles), np.sin(angles)))
         t_wall = wall_tension(p, r, t_tail, distal_compression(self._contact_forces(a), axes))
         self._wall_tension = t_wall
@@ -393,6 +402,17 @@ class EversionSim:
         return float(np.min(cap)) if len(cap) else 0.0
 
     @property
+    def step_mean_pressure(self) -> float:
+        """Mean regulated pressure (Pa) over the steps of the last :meth:`step` call."""
+        return self._step_mean_pressure
+
+    @property
+    def step_max_contact_force(self) -> float:
+        """Largest tip contact force magnitude ``|tip_contact|`` (N) over the steps of the last
+        :meth:`step` call (the last value held while the rest lock holds)."""
+        return self._step_max_contact
+
+    @property
     def in_contact(self) -> bool:
         """Whether the tip segment touched a wall in the last step."""
         return self._in_contact
@@ -410,23 +430,23 @@ class EversionSim:
         A single step's impulse over the step is not one: a contact that the growing tip
         meets with an overlap is resolved in one step by an impulse whose size depends on
         the step and the scaled masses."""
-        body = self.bodies[-1]
+        rows = arbiter_impulses(self.bodies[-1])
+        if not rows and len(self._tip_impulses) == 1:  # no contact: no force
+            self.tip_contact = np.zeros(2)
+            self._frontal = False
+            self.tip_force = 0.0
+            self._tip_force_norm = 0.0
+            self._in_contact = False
+            return
         t = self.tip_direction
         total = [0.0, 0.0]
-        touching = False
+        touching = bool(rows)
         frontal = False
-
-        def acc(arb):
-            nonlocal touching, frontal
-            imp = arb.total_impulse
-            total[0] += imp.x
-            total[1] += imp.y
-            touching = True
-            n = arb.normal  # from the tip's shape towards the other one
-            if n.x * t[0] + n.y * t[1] > 0.2:
+        for jx, jy, nx, ny in rows:
+            total[0] += jx
+            total[1] += jy
+            if nx * t[0] + ny * t[1] > 0.2:  # the normal points from the tip's shape towards the other one
                 frontal = True
-
-        body.each_arbiter(acc)
         window = len(self._tip_impulses)
         if window == 1:
             f = np.array(total) / self.cfg.dt_s
@@ -437,6 +457,7 @@ class EversionSim:
         self._frontal = frontal
         self.tip_force = max(0.0, -float(f @ t))
         mag = float(math.hypot(*f))
+        self._tip_force_norm = mag
         self.max_contact_force = max(self.max_contact_force, mag)
         if touching and not self._in_contact:
             self._event("contact", force_n=round(mag, 6))
@@ -499,6 +520,8 @@ class EversionSim:
         for z in self._ref_section.zones:
             if z.start_m <= s_tip <= z.end_m:
                 rho = max(rho, z.reduction * float(z.shape(s_tip)))
+        if rho == 0.0:  # bare material: the same every step
+            return self._bare_threshold
         r_tip = self.design.radius_m * (1 - rho)
         return float(self.threshold(rho)), math.pi * r_tip * r_tip
 
@@ -569,11 +592,17 @@ class EversionSim:
             self.active_start = freeze_upto
 
     def step(self, n_steps: int = 1) -> None:
-        """Advance ``n_steps`` pymunk steps of ``cfg.dt_s``."""
+        """Advance ``n_steps`` pymunk steps of ``cfg.dt_s``.
+
+        The finite-state check runs once per call (a chain that blew up is reported at the
+        end of the call); :attr:`step_mean_pressure` and :attr:`step_max_contact_force`
+        summarise the call's steps."""
         cfg = self.cfg
         dt = cfg.dt_s
+        p_sum, f_max = 0.0, 0.0
         for _ in range(n_steps):
             p = self.regulator.advance(dt)
+            p_sum += p
             self.peak_pressure = max(self.peak_pressure, p)
             if self._rest_pressure is not None:
                 if abs(p - self._rest_pressure) <= cfg.rest_pressure_tol_pa:
@@ -581,6 +610,7 @@ class EversionSim:
                     self.steps += 1
                     self.growth_speed = 0.0
                     self._stall_update(0.0, dt)
+                    f_max = max(f_max, self._tip_force_norm)
                     continue
                 self._rest_pressure = None
             if self.steps % cfg.law_interval == 0:
@@ -590,6 +620,10 @@ class EversionSim:
                     self._update_joint_law()
             if self.steps % _FREEZE_INTERVAL == 0:
                 self._freeze_check()
+                if self._dormant is not None:
+                    active = self.bodies[self.active_start:]
+                    centres = np.array([tuple(b.position) for b in active]).reshape(-1, 2)
+                    self._dormant.update(centres, max(sh.radius for sh in self.shapes) + self.ds)
             p_y, area = self._tip_threshold()
             if self._tail_base_n is None:
                 self._push_tip(p, p_y, area)
@@ -605,6 +639,9 @@ class EversionSim:
             self._stall_update(v, dt)
             if self._stalled and cfg.rest_speed_m_per_s > 0 and self.steps % _FREEZE_INTERVAL == 0 and self._at_rest(p):
                 self._rest_pressure = p
+            f_max = max(f_max, self._tip_force_norm)
+        self._step_mean_pressure = p_sum / n_steps if n_steps > 0 else self.pressure
+        self._step_max_contact = f_max
         self._check_finite()
 
     def _tip_region_residual(self) -> float:
