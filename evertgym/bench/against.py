@@ -64,9 +64,7 @@ class BuildError(RuntimeError):
 
 def repo_root() -> Path:
     """The git work tree holding the imported ``evertgym`` (raises :class:`BuildError` if none)."""
-    import evertgym
-
-    here = Path(evertgym.__file__).resolve().parent.parent
+    here = Path(__file__).resolve().parents[2]  # evertgym/bench/against.py -> the tree holding evertgym/
     done = subprocess.run(["git", "-C", str(here), "rev-parse", "--show-toplevel"], capture_output=True, text=True)
     if done.returncode != 0:
         raise BuildError(f"--against needs evertgym imported from a git checkout; {here} is not one")

@@ -42,22 +42,20 @@ from evertgym.limits import MAX_EVENTS
 from evertgym.model.eversion import EversionThreshold, tail_weight_pressure
 from evertgym.model.params import ModelParams, load_params
 from evertgym.model.pressure import KINK_MOMENT_FRACTION, InflatedBeamLaw
-from evertgym.model.section import TubeSection
 from evertgym.model.section_law import compression_capacity, distal_compression, tail_tension, wall_tension
 from evertgym.model.section_law import wrinkling_moment as wrinkling_moment_of_wall
 from evertgym.sim.chipmunk import arbiter_impulses, body_angles, set_rotary_stiffness, set_spring_stiffness
 from evertgym.sim.config import SimConfig
-from evertgym.sim.discretize import hat_compliance, joint_moment, segment_inertia
+from evertgym.sim.discretize import joint_moment, segment_inertia
 from evertgym.sim.dormant import WALL_REST_SPEED_M_PER_S, DormantWalls
 from evertgym.sim.growth import GrowthLaw, PressureRegulator
 from evertgym.sim.links import Link, make_link
+from evertgym.sim.material import material_tables
 
 ROBOT_COLLISION_TYPE = 1
 _ROBOT_GROUP = 1
 #: Steps between active-set checks.
 _FREEZE_INTERVAL = 25
-#: Reference pressure at which the joint compliances are tabulated (Pa).
-_P_REF = 6900.0
 
 
 class NumericalInstabilityError(RuntimeError):
@@ -129,18 +127,20 @@ class EversionSim:
         # material tables over all nodes of the body (joint j at s_j = j ds)
         ds = cfg.segment_length_m
         self.ds = ds
-        n_nodes = int(math.floor(design.length_m / ds + 1e-9))
-        self.nodes = np.arange(n_nodes) * ds
-        self._ref_section = TubeSection(design, _P_REF, self.params)
+        tables = material_tables(design, ds, self.params)
+        self.nodes = tables.nodes
+        self._node_list = tables.nodes.tolist()
+        self._ref_section = tables.section
         self._e_ref = self._ref_section.e_eff_pa
-        self._c_ref = hat_compliance(self._ref_section, self.nodes, design.length_m)
-        self._cs_ref = hat_compliance(self._ref_section, self.nodes, design.length_m, shear=True)
-        r_cell = np.array([float(np.min(self._ref_section.radius(np.linspace(max(s - ds / 2, 0), s + ds / 2, 17)))) for s in self.nodes])
-        self._r_cell = r_cell
-        self._r3 = r_cell**3
+        self._c_ref = tables.c_ref
+        self._cs_ref = tables.cs_ref
+        self._r_cell = tables.r_cell
+        self._r3 = tables.r_cell**3
         self._law = InflatedBeamLaw.for_design(design)
-        seg_s = np.linspace(0, design.length_m, int(design.length_m / (ds / 8)) + 2)
-        self._radius_fine = (seg_s, self._ref_section.radius(seg_s))
+        self._radius_fine = (tables.radius_s, tables.radius_r)
+        # where the tip's material changes radius (m), and where each band starts (m)
+        self._band_zones = [(z.start_m - 2 * ds, z.end_m + 2 * ds) for z in self._ref_section.zones]
+        self._band_starts = [(i, b.position_m - b.width_m / 2, b.reduction) for i, b in enumerate(design.bands)]
 
         self.threshold = threshold or EversionThreshold.calibrated()
         self._bare_threshold = (float(self.threshold(0.0)), math.pi * design.radius_m * design.radius_m)
@@ -205,7 +205,7 @@ class EversionSim:
         return float(np.max(r[m])) if np.any(m) else float(np.interp(0.5 * (a + b), s, r))
 
     def _near_band(self, s: float) -> bool:
-        return any(z.start_m - 2 * self.ds <= s <= z.end_m + 2 * self.ds for z in self._ref_section.zones)
+        return any(lo <= s <= hi for lo, hi in self._band_zones)
 
     def _mass_props(self, j: int) -> tuple[float, float]:
         """Scaled (mass, inertia) for the stiffest state of the adjacent joints (8 kPa)."""
@@ -472,26 +472,27 @@ class EversionSim:
         if dl <= 0:
             return
         # bands reaching the tip
-        for i, b in enumerate(self.design.bands):
-            if i not in self._bands_reached and new_len >= b.position_m - b.width_m / 2:
+        for i, start, reduction in self._band_starts:
+            if new_len >= start and i not in self._bands_reached:
                 self._bands_reached.add(i)
                 self.length = new_len
-                self._event("band_at_tip", band=i, reduction=b.reduction)
+                self._event("band_at_tip", band=i, reduction=reduction)
         self.length = new_len
         j = len(self.bodies) - 1
         sh = self.shapes[-1]
-        seg = self.length - self.nodes[j]
+        nodes = self._node_list
+        seg = self.length - nodes[j]
         r_old = sh.radius
-        if seg >= 2 * self.ds - 1e-12 and j + 1 < len(self.nodes):
+        if seg >= 2 * self.ds - 1e-12 and j + 1 < len(nodes):
             # split: the tip segment becomes a full segment and a new tip starts at node j+1
             sh.unsafe_set_endpoints((0.0, 0.0), (self.ds, 0.0))
             # a laid-down segment is never wider than the tip it was: widening it in place
             # would push it into a wall it already touches
-            sh.unsafe_set_radius(min(self._radius_between(self.nodes[j], self.nodes[j] + self.ds), r_old))
+            sh.unsafe_set_radius(min(self._radius_between(nodes[j], nodes[j] + self.ds), r_old))
             sh.friction = self.cfg.wall_friction  # no longer the tip: laid down
             body = self.bodies[-1]
             origin = np.array(body.local_to_world((self.ds, 0.0)))
-            self._add_segment(j + 1, seg - self.ds, origin, body.angle, self._tip_radius(r_old, self.nodes[j + 1], dl))
+            self._add_segment(j + 1, seg - self.ds, origin, body.angle, self._tip_radius(r_old, nodes[j + 1], dl))
             nb = self.bodies[-1]
             nb.velocity = body.velocity_at_local_point((self.ds, 0.0))
             nb.angular_velocity = body.angular_velocity
@@ -503,7 +504,7 @@ class EversionSim:
         else:
             sh.unsafe_set_endpoints((0.0, 0.0), (seg, 0.0))
             if self._near_band(self.length):  # the tip's material changes radius as it grows
-                sh.unsafe_set_radius(self._tip_radius(r_old, self.nodes[j], dl))
+                sh.unsafe_set_radius(self._tip_radius(r_old, nodes[j], dl))
 
     def _tip_radius(self, r_old: float, start: float, dl: float) -> float:
         """Collision radius (m) of the tip segment starting at material coordinate ``start``
