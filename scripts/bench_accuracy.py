@@ -225,6 +225,8 @@ def markdown(result: dict, lines: list[str], skip_lines: list[str]) -> str:
         "* Against PyElastica and MuJoCo at matched (1%) accuracy: [peers.md](peers.md) "
         "(`PYTHONPATH=. python scripts/bench_peers.py`).",
         "* Numerical stress tests (hypothesis): [stress.md](stress.md).",
+        "* Env steps per second against an earlier build, side by side, and where an env step's time goes: "
+        "[speed.md](speed.md) (`evertgym bench env --against REV`).",
         "",
     ])
 
