@@ -68,8 +68,8 @@ def joint_moment(angle: np.ndarray, stiffness: np.ndarray, wrinkling_moment: np.
     tension-field law beyond it (towards ``M_c = 2 M_w``), never below the residual
     ``RESIDUAL_STIFFNESS_FRACTION k phi``."""
     lin = stiffness * angle
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = np.where(wrinkling_moment > 0, np.abs(lin) / wrinkling_moment, np.inf)
+    ratio = np.full(np.shape(lin), np.inf)
+    np.divide(np.abs(lin), wrinkling_moment, out=ratio, where=wrinkling_moment > 0)
     wrinkled = ratio > 1.0
     if not np.any(wrinkled):
         return lin

@@ -305,8 +305,9 @@ class EversionSim:
             self._section_law(a, phi, theta, self._tail_base_n)
         k = self._k_now[a : a + len(phi)]
         moments = joint_moment(phi, k, self._mw_now[a : a + len(phi)])
-        with np.errstate(divide="ignore", invalid="ignore"):
-            secant = np.where(np.abs(phi) > 1e-12, moments / phi, k) / self._beta
+        secant = np.array(k, dtype=float)
+        np.divide(moments, phi, out=secant, where=np.abs(phi) > 1e-12)
+        secant /= self._beta
         set_rotary_stiffness(self.springs[a:], secant.tolist())
         mc = 2.0 * self._mw_now[a : a + len(phi)]
         kinked = np.nonzero(np.abs(moments) >= KINK_MOMENT_FRACTION * mc)[0] + a if np.any(mc > 0) else ()
