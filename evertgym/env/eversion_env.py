@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import warnings
 from typing import Any
@@ -49,8 +50,8 @@ class EversionEnv(gym.Env):
 
     **Observation space** ``Box(low, high, (n,), float32)``, ``n = 3 (history + 1)
     + 2 tip_sensing + 10 scene_ahead``.  By default only what an operator has.  For ``k = 0
-    .. history`` (``k = 0`` the current step, ``k`` steps ago after it), indices ``3 k``,
-    ``3 k + 1``, ``3 k + 2``:
+    .. history``, oldest first (``k = history`` the current step, ``k`` the sample of
+    ``history - k`` steps ago), indices ``3 k``, ``3 k + 1``, ``3 k + 2``:
 
     =====  ============================================  =====================  ======  ======
     index  observation                                   unit (divided by)      low     high
@@ -171,6 +172,10 @@ class EversionEnv(gym.Env):
         success_weight: float = 10.0,
         sim_config: SimConfig | dict | None = None,
         render_mode: str | None = None,
+        regulator_tau_s: tuple[float, float] | None = None,
+        wall_friction: tuple[float, float] | None = None,
+        pressure_noise_kpa: float = 0.0,
+        insertion_noise_mm: float = 0.0,
     ):
         self.design = design if isinstance(design, TubeDesign) else TubeDesign.from_dict({"tube": {"length_mm": 900.0}} if design is None else design)
         self.scene_cfg = dict(_check_scene({"family": "ubend", "params": {}} if scene is None else scene, self.design))
@@ -196,6 +201,12 @@ class EversionEnv(gym.Env):
         for name, w in (("progress_weight", progress_weight), ("pressure_weight", pressure_weight),
                         ("contact_weight", contact_weight), ("stall_weight", stall_weight), ("success_weight", success_weight)):
             check_range(name, w, 0.0, 1e6)
+        # domain randomisation of what the paper does not give: drawn per episode, after the
+        # scene, band and entry draws (so an env without it draws exactly as before)
+        self.regulator_tau_range = None if regulator_tau_s is None else check_pair("regulator_tau_s", regulator_tau_s, 0.0, 10.0, "s")
+        self.wall_friction_range = None if wall_friction is None else check_pair("wall_friction", wall_friction, 0.0, 5.0)
+        self.pressure_noise_pa = check_range("pressure_noise_kpa", pressure_noise_kpa, 0.0, 8.0, unit="kPa") * 1e3
+        self.insertion_noise_m = check_range("insertion_noise_mm", insertion_noise_mm, 0.0, 1000.0, unit="mm") / 1e3
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode = {render_mode!r}: allowed {self.metadata['render_modes']} or None")
         self.control_dt = 1.0 / control_hz
@@ -248,7 +259,7 @@ class EversionEnv(gym.Env):
         return self._scene
 
     # ---- episode --------------------------------------------------------------
-    def _draw_episode(self, scene_seed: int | None) -> tuple[Scene, TubeDesign, np.ndarray]:
+    def _draw_episode(self, scene_seed: int | None) -> tuple[Scene, TubeDesign, np.ndarray, SimConfig]:
         rng = self.np_random
         params = sample_params(dict(self.scene_cfg.get("params", {})), rng)
         seed = self.scene_cfg.get("seed", "episode")
@@ -269,13 +280,19 @@ class EversionEnv(gym.Env):
         lateral = float(rng.uniform(*self.entry_offset)) if self.entry_offset[1] > self.entry_offset[0] else 0.0
         d = np.asarray(scene.entry_direction, dtype=float)
         base = np.asarray(scene.entry, dtype=float) + lateral * np.array([-d[1], d[0]])
-        return scene, design, base
+        changes: dict[str, Any] = {}
+        if self.regulator_tau_range is not None:
+            changes["regulator_tau_s"] = float(rng.uniform(*self.regulator_tau_range))
+        if self.wall_friction_range is not None:
+            changes["wall_friction"] = float(rng.uniform(*self.wall_friction_range))
+        config = dataclasses.replace(self.sim_config, **changes) if changes else self.sim_config
+        return scene, design, base, config
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
         scene_seed = (options or {}).get("scene_seed")
-        self._scene, design, base = self._draw_episode(scene_seed)
-        self._sim = EversionSim(design, scene=self._scene, config=self.sim_config, base=tuple(base))
+        self._scene, design, base, config = self._draw_episode(scene_seed)
+        self._sim = EversionSim(design, scene=self._scene, config=config, base=tuple(base))
         self.command_pa = 0.0
         self._s_tip = self._tip_arclength()
         self._hist = [self._sample()] * (self.history + 1)
@@ -340,8 +357,16 @@ class EversionEnv(gym.Env):
         return float(s)
 
     def _sample(self) -> tuple[float, float, float]:
+        """One history sample: pressure, insertion and growth speed, each scaled to [0, 1];
+        the pressure and insertion as their sensors read them (``pressure_noise_kpa``,
+        ``insertion_noise_mm``: Gaussian, drawn from the env's generator)."""
         sim = self.sim
-        return (sim.pressure / MAX_PRESSURE_PA, sim.length / sim.design.length_m, sim.growth_speed / sim.cfg.max_growth_speed_m_per_s)
+        p, length = sim.pressure, sim.length
+        if self.pressure_noise_pa > 0:
+            p += self.pressure_noise_pa * float(self.np_random.normal())
+        if self.insertion_noise_m > 0:
+            length += self.insertion_noise_m * float(self.np_random.normal())
+        return (p / MAX_PRESSURE_PA, length / sim.design.length_m, sim.growth_speed / sim.cfg.max_growth_speed_m_per_s)
 
     def _obs(self) -> np.ndarray:
         parts = [v for sample in self._hist for v in sample]
@@ -364,8 +389,9 @@ class EversionEnv(gym.Env):
     def observation_names(self) -> list[str]:
         """A name for every observation index (``pressure[t-1]``, ``tip_force``, ``turn@20mm``, ...)."""
         names = []
-        for k in range(self.history + 1):
-            lag = "t" if k == 0 else f"t-{k}"
+        for k in range(self.history + 1):  # oldest first: the current step's sample is the last
+            ago = self.history - k
+            lag = "t" if ago == 0 else f"t-{ago}"
             names += [f"pressure[{lag}]", f"insertion[{lag}]", f"growth_speed[{lag}]"]
         if self.tip_sensing:
             names += ["tip_force", "tip_contact"]
@@ -388,6 +414,8 @@ class EversionEnv(gym.Env):
             "max_contact_force_n": sim.max_contact_force,
             "stall_count": sim.stall_count,
             "tip_arclength_mm": self._s_tip * 1e3,
+            "regulator_tau_s": sim.cfg.regulator_tau_s,
+            "wall_friction": sim.cfg.wall_friction,
         }
         info.update({f"reward_{k}": float(v) for k, v in self._terms.items()})
         return info
