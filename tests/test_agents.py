@@ -1,6 +1,7 @@
 """Baselines, SB3 training with checkpoints and resume, evaluation side by side."""
 
 import json
+import re
 import subprocess
 import sys
 import time
@@ -49,6 +50,63 @@ def test_cycling_is_a_square_wave_of_the_control_clock():
         make_baseline("cycle", period_s=0.0)
     with pytest.raises(ValueError, match="high_kpa"):
         make_baseline("cycle", high_kpa=12.0)
+
+
+def _commands_kpa(policy, n: int, control_hz: float = 10.0, obs_info=None) -> list[float]:
+    env = EversionEnv(scene={"family": "straight", "params": {}}, design={"tube": {"length_mm": 600.0}}, control_hz=control_hz)
+    env.reset(seed=0)
+    policy.reset(env)
+    return [round(float((policy.act(None, {})[0] + 1) * 4), 6) for _ in range(n)]
+
+
+def test_cycle_low_level_period_and_duty_are_parameters_in_python_and_policy_strings():
+    from evertgym.agents.policies import make_policy, policy_desc
+
+    # the 0 <-> 3 kPa, 1 s wave of issue 18, spelled as the CLI spells it
+    assert policy_desc("cycle:low_kpa=0,high_kpa=3,period_s=1") == {"name": "cycle", "low_kpa": 0.0, "high_kpa": 3.0, "period_s": 1.0}
+    wave = _commands_kpa(make_policy("cycle:low_kpa=0,high_kpa=3,period_s=1"), 20)
+    assert wave == ([3.0] * 5 + [0.0] * 5) * 2
+    # duty: the fraction of each period at the high level
+    assert _commands_kpa(make_baseline("cycle", low_kpa=0.0, high_kpa=3.0, period_s=1.0, duty=0.3), 10) == [3.0] * 3 + [0.0] * 7
+    # the historical defaults still hold: 1 <-> 8 kPa, 2 s, half and half
+    assert _commands_kpa(make_policy("cycle"), 20) == [8.0] * 10 + [1.0] * 10
+    assert policy_desc("constant:pressure_kpa=3") == {"name": "constant", "pressure_kpa": 3.0}
+    assert policy_desc("operator") == {"name": "operator"} == policy_desc("operator:")
+
+
+@pytest.mark.parametrize(
+    "desc, message",
+    [
+        ("cycle:duty=1.5", "duty = 1.5 is out of range: allowed (0, 1)"),
+        ("cycle:duty=0", "duty = 0.0 is out of range"),
+        ("cycle:low_kpa=-1", "low_kpa = -1.0 is out of range: allowed [0, 8] kPa"),
+        ("cycle:period_s=0", "period_s = 0.0 is out of range"),
+        ("cycle:low_kpa=zero", "low_kpa must be a number"),
+        ("cycle:low_kpa=0,low_kpa=1", "low_kpa is given twice"),
+        ("cycle:low_kpa=0,3", "'3' is not a parameter"),
+        ("cycle:level_kpa=0", "level_kpa"),
+    ],
+)
+def test_policy_strings_reject_bad_parameters_in_one_line(desc, message):
+    from evertgym.agents.policies import make_policy
+
+    with pytest.raises(ValueError, match=re.escape(message)) as e:
+        make_policy(desc)
+    assert "\n" not in str(e.value)
+
+
+def test_eval_cli_takes_baselines_with_parameters(capsys):
+    from evertgym.cli import main
+
+    argv = ["eval", "cycle:low_kpa=0,high_kpa=3,period_s=1", "cycle", "--env", "evertgym/UBend-v0", "--episodes", "1", "--json"]
+    assert main(argv) == 0
+    rows = json.loads(capsys.readouterr().out)["rows"]
+    assert [r["policy"] for r in rows] == ["cycle:low_kpa=0,high_kpa=3,period_s=1", "cycle"]
+    # the 0 kPa low level deflates; the peak is the 3 kPa high level, not the default 8 kPa
+    assert rows[0]["mean_peak_pressure_kpa"] <= 3.0 + 0.05
+    assert main(["eval", "cycle:duty=2", "--env", "evertgym/UBend-v0", "--episodes", "1"]) == 2
+    err = capsys.readouterr().err
+    assert "duty = 2.0 is out of range" in err and "Traceback" not in err
 
 
 @pytest.mark.parametrize("kwargs, field", [(dict(pressure_kpa=9.0), "pressure_kpa"), (dict(pressure_kpa=float("nan")), "pressure_kpa")])
