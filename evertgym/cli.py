@@ -665,7 +665,7 @@ def build_parser() -> argparse.ArgumentParser:
     tr.set_defaults(func=cmd_train)
 
     ev = _sub(sub, "eval", "evaluate policies side by side on the same held-out episodes")
-    ev.add_argument("policies", nargs="+", help="a baseline (constant, operator, tuned, cycle), with parameters as "
+    ev.add_argument("policies", nargs="+", help="a baseline (constant, operator, tuned, cycle, deflate), with parameters as "
                     "name:key=value,... (cycle:low_kpa=0,high_kpa=3,period_s=1), a shipped policy or a saved model (.zip)")
     ev.add_argument("--env", required=True, help="a registered env id, e.g. evertgym/Colon-v0")
     ev.add_argument("--episodes", type=int, default=20, help="held-out episodes per policy (the same seeds for each)")
@@ -677,7 +677,7 @@ def build_parser() -> argparse.ArgumentParser:
     ev.set_defaults(func=cmd_eval)
 
     ro = _sub(sub, "rollout", "render one episode to a GIF")
-    ro.add_argument("policy", help="a baseline (constant, operator, cycle, tuned; parameters as cycle:low_kpa=0,high_kpa=3), "
+    ro.add_argument("policy", help="a baseline (constant, operator, cycle, deflate, tuned; parameters as cycle:low_kpa=0,high_kpa=3), "
                     "a shipped policy (colon_ppo, ubend_ppo) or a .zip")
     ro.add_argument("--env", required=True, help="a registered env id, e.g. evertgym/Colon-v0")
     ro.add_argument("--out", required=True, help="FILE.gif")

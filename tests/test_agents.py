@@ -109,6 +109,73 @@ def test_eval_cli_takes_baselines_with_parameters(capsys):
     assert "duty = 2.0 is out of range" in err and "Traceback" not in err
 
 
+def _stub_env(control_dt: float = 0.1):
+    from types import SimpleNamespace
+
+    return SimpleNamespace(unwrapped=SimpleNamespace(control_dt=control_dt))
+
+
+def test_deflate_on_stall_deflates_after_a_stall_then_resumes():
+    """On a stub insertion trace (10 Hz): growth, a stall, growth again.  The rule holds
+    3 kPa, answers the stall with 0 kPa for 0.5 s (5 steps), then inflates again and holds."""
+    from evertgym.agents.policies import make_policy
+
+    policy = make_policy("deflate:high_kpa=3,low_kpa=0,deflate_s=0.5")
+    policy.reset(_stub_env())
+    lengths = [15.0 + 5.0 * k for k in range(20)]  # 50 mm/s for 2 s
+    lengths += [lengths[-1] + 0.1 * k for k in range(1, 31)]  # stalled (1 mm/s) for 3 s
+    lengths += [lengths[-1] + 5.0 * k for k in range(1, 21)]  # growing again
+    cmds = [round(float((policy.act(None, {"insertion_length_mm": x})[0] + 1) * 4), 6) for x in lengths]
+    first_low = cmds.index(0.0)
+    # the last growing sample is step 19: the stall is seen once the window (1 s) holds < 2 mm
+    assert 19 + 10 <= first_low <= 19 + 11
+    assert cmds[:first_low] == [3.0] * first_low  # growing, then the first second of the stall: inflated
+    assert cmds[first_low:first_low + 5] == [0.0] * 5  # deflated for 0.5 s
+    assert cmds[first_low + 5] == 3.0  # then inflated again
+    assert set(cmds[50:]) == {3.0}  # growing again: no more deflation
+    assert 1 <= policy.deflations <= 2  # the stall lasted 3 s: at most one repeat after a full window at 3 kPa
+    assert policy.max_command_kpa == 3.0
+    # no stall, no deflation
+    policy.reset(_stub_env())
+    assert {round(float((policy.act(None, {"insertion_length_mm": 15.0 + 5.0 * k})[0] + 1) * 4), 6) for k in range(40)} == {3.0}
+    assert policy.deflations == 0
+
+
+def test_deflate_defaults_and_bad_parameters():
+    from evertgym.agents import DeflateOnStall
+    from evertgym.agents.policies import make_policy
+
+    d = make_policy("deflate")
+    assert isinstance(d, DeflateOnStall) and (d.high_kpa, d.low_kpa, d.deflate_s) == (3.0, 0.0, 0.5)
+    for desc, message in [("deflate:deflate_s=0", "deflate_s = 0.0 is out of range"), ("deflate:high_kpa=9", "high_kpa = 9.0"),
+                          ("deflate:stall_mm=-1", "stall_mm = -1.0"), ("deflate:tip_force=1", "tip_force")]:
+        with pytest.raises(ValueError, match=re.escape(message)):
+            make_policy(desc)
+
+
+def test_deflate_on_stall_deflates_in_a_colon_episode():
+    """A held-out Colon-v0 episode: the rule deflates at least once, only to 0 kPa, and
+    never commands more than 3 kPa."""
+    import gymnasium as gym
+
+    from evertgym.agents.evaluate import run_episode
+    from evertgym.agents.policies import make_policy
+    from evertgym.env.eversion_env import HELD_OUT_SEED_BASE
+
+    env = gym.make("evertgym/Colon-v0")
+    policy = make_policy("deflate")
+    seen: list[float] = []
+
+    def record(env, info) -> bool:
+        seen.append(round(env.unwrapped.command_pa / 1e3, 6))
+        return False
+
+    info = run_episode(env, policy, HELD_OUT_SEED_BASE, options={"scene_seed": HELD_OUT_SEED_BASE}, stop=record)
+    assert set(seen) == {0.0, 3.0} and policy.deflations >= 1
+    assert info["peak_pressure_kpa"] <= 3.0 + 0.05
+    assert info["outcome"] in ("success", "time out")
+
+
 @pytest.mark.parametrize("kwargs, field", [(dict(pressure_kpa=9.0), "pressure_kpa"), (dict(pressure_kpa=float("nan")), "pressure_kpa")])
 def test_baselines_reject_bad_parameters(kwargs, field):
     with pytest.raises(ValueError, match=field):

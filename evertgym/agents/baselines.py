@@ -150,4 +150,60 @@ class PressureCycling(Policy):
         return pressure_to_action(self.high_kpa if phase < self.duty else self.low_kpa)
 
 
-BASELINES = {"constant": ConstantPressure, "operator": OperatorProtocol, "cycle": PressureCycling}
+@dataclass
+class DeflateOnStall(Policy):
+    """Hold ``high_kpa``; when progress stalls, deflate to ``low_kpa`` for ``deflate_s``
+    seconds, then inflate again.
+
+    It reads what an operator sees: the measured insertion length
+    (``info["insertion_length_mm"]``) and the clock, never the tip force.  Progress stalls
+    as for :class:`OperatorProtocol`: the insertion grew by less than ``stall_mm`` over the
+    last ``stall_s`` seconds at the high level.  After a deflation the stall window starts
+    afresh, so the robot gets a full ``stall_s`` at ``high_kpa`` before the next one.
+    ``deflate:high_kpa=3,low_kpa=0,deflate_s=0.5`` is the rule of issue 18.
+
+    Parameters: ``high_kpa`` and ``low_kpa`` in [0, 8] kPa, ``deflate_s`` in (0, 60] s,
+    ``stall_s`` in (0, 60] s, ``stall_mm`` in [0, 1000] mm.
+    """
+
+    high_kpa: float = 3.0
+    low_kpa: float = 0.0
+    deflate_s: float = 0.5
+    stall_s: float = 1.0
+    stall_mm: float = 2.0
+    name: str = field(default="deflate", init=False)
+
+    def __post_init__(self) -> None:
+        check_range("high_kpa", self.high_kpa, 0.0, 8.0, unit="kPa")
+        check_range("low_kpa", self.low_kpa, 0.0, 8.0, unit="kPa")
+        check_range("deflate_s", self.deflate_s, 0.0, 60.0, lo_open=True, unit="s")
+        check_range("stall_s", self.stall_s, 0.0, 60.0, lo_open=True, unit="s")
+        check_range("stall_mm", self.stall_mm, 0.0, 1000.0, unit="mm")
+
+    @property
+    def max_command_kpa(self) -> float:
+        return max(self.low_kpa, self.high_kpa)
+
+    def reset(self, env) -> None:
+        super().reset(env)
+        self.window: list[float] = []
+        self.deflate_left = 0  # control steps still to spend at low_kpa
+        self.deflations = 0  # stalls answered this episode
+
+    def act(self, obs, info):
+        if self.deflate_left > 0:
+            self.deflate_left -= 1
+            return pressure_to_action(self.low_kpa)
+        self.window.append(float(info["insertion_length_mm"]))
+        n = max(1, int(round(self.stall_s / self.dt)))
+        if len(self.window) > n:
+            self.window = self.window[-(n + 1) :]
+            if self.window[-1] - self.window[0] < self.stall_mm:
+                self.deflations += 1
+                self.window = []
+                self.deflate_left = max(1, int(round(self.deflate_s / self.dt))) - 1
+                return pressure_to_action(self.low_kpa)
+        return pressure_to_action(self.high_kpa)
+
+
+BASELINES = {"constant": ConstantPressure, "operator": OperatorProtocol, "cycle": PressureCycling, "deflate": DeflateOnStall}

@@ -85,7 +85,7 @@ class SB3Policy(Policy):
 
 
 def make_baseline(name: str, **kwargs) -> Policy:
-    """A baseline policy by name (``constant``, ``operator``, ``cycle``, ``tuned``) with its parameters."""
+    """A baseline policy by name (``constant``, ``operator``, ``cycle``, ``deflate``, ``tuned``) with its parameters."""
     if name == "tuned":
         return load_tuned(**kwargs)
     if name not in BASELINES:
@@ -167,7 +167,7 @@ def make_policy(desc: dict | str, trust: bool = False) -> Policy:
     if name == "agent":
         return SB3Policy(desc["path"], desc.get("deterministic"), trust=trust)
     if name is None:
-        raise ValueError("policy must have a name: constant, operator, tuned or agent")
+        raise ValueError("policy must have a name: constant, operator, cycle, deflate, tuned or agent")
     if name in shipped_policies():  # a shipped trained policy by name, e.g. "colon_ppo"
         return SB3Policy(resolve_policy_path(name), desc.get("deterministic"), trust=trust)
     return make_baseline(name, **desc)
