@@ -210,21 +210,43 @@ def test_eval_over_worker_processes_gives_the_same_rows():
         evaluate(pols, "evertgym/UBend-v0", 3, workers=0)
 
 
-def _tiny_config(tmp_path: Path) -> Path:
-    cfg = tmp_path / "tiny_ppo.toml"
+def _tiny_config(tmp_path: Path, n_timesteps: int = 512, name: str = "tiny_ppo") -> Path:
+    cfg = tmp_path / f"{name}.toml"
+    # 1 s episodes (10 steps): dozens of resets, so each side of a stop draws many scenes
     cfg.write_text(
-        'env_id = "evertgym/UBend-v0"\nalgo = "ppo"\nseed = 1\nn_envs = 1\nn_timesteps = 512\nnormalize = true\n'
-        "checkpoint_freq = 128\neval_episodes = 0\n[hyperparams]\nn_steps = 64\nbatch_size = 32\nn_epochs = 1\n"
+        f'env_id = "evertgym/UBend-v0"\nalgo = "ppo"\nseed = 1\nn_envs = 1\nn_timesteps = {n_timesteps}\nnormalize = true\n'
+        "checkpoint_freq = 128\neval_episodes = 0\n[env_kwargs]\nmax_episode_s = 1.0\n"
+        "[hyperparams]\nn_steps = 64\nbatch_size = 32\nn_epochs = 1\n"
     )
     return cfg
+
+
+# runs the CLI with every env reset appending its scene seed to a file (flushed per line,
+# so a kill keeps what was drawn before it)
+_SCENE_LOGGER = """
+import sys
+from evertgym.env.eversion_env import EversionEnv
+_reset = EversionEnv.reset
+def reset(self, *, seed=None, options=None):
+    out = _reset(self, seed=seed, options=options)
+    with open(sys.argv[1], "a") as fh:
+        fh.write(f"{self.scene.spec.seed}\\n")
+    return out
+EversionEnv.reset = reset
+from evertgym.cli import main
+sys.exit(main(sys.argv[2:]))
+"""
 
 
 def test_training_killed_after_a_checkpoint_resumes_and_counts_on(tmp_path):
     cfg = _tiny_config(tmp_path)
     out = tmp_path / "runs"
     ckpt = out / "tiny_ppo" / "checkpoints"
-    cmd = [sys.executable, "-m", "evertgym.cli", "train", str(cfg), "--out", str(out), "--no-progress"]
-    proc = subprocess.Popen(cmd)
+    driver = tmp_path / "drive.py"
+    driver.write_text(_SCENE_LOGGER)
+    before, after = tmp_path / "scenes_before_kill.txt", tmp_path / "scenes_after_resume.txt"
+    cmd = ["train", str(cfg), "--out", str(out), "--no-progress"]
+    proc = subprocess.Popen([sys.executable, str(driver), str(before)] + cmd)
     deadline = time.time() + 240
     while time.time() < deadline and not list(ckpt.glob("model_vecnormalize_*_steps.pkl")):
         time.sleep(0.2)  # the statistics are saved after the model: a checkpoint is complete
@@ -233,7 +255,7 @@ def test_training_killed_after_a_checkpoint_resumes_and_counts_on(tmp_path):
     saved = sorted(int(p.name.split("_")[1]) for p in ckpt.glob("model_*_steps.zip"))
     assert saved, "no checkpoint was written before the kill"
     assert not (out / "tiny_ppo" / "final.zip").exists()
-    done = subprocess.run(cmd + ["--resume"], capture_output=True, text=True, timeout=600)
+    done = subprocess.run([sys.executable, str(driver), str(after)] + cmd + ["--resume"], capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr
     summary = json.loads((out / "tiny_ppo" / "eval.json").read_text())
     assert summary["num_timesteps"] >= 512
@@ -244,6 +266,49 @@ def test_training_killed_after_a_checkpoint_resumes_and_counts_on(tmp_path):
     # the counter continued from the checkpoint: it never restarted below it
     assert model.num_timesteps >= max(saved)
     assert list((out / "tiny_ppo" / "tb").rglob("events.out.tfevents*"))  # TensorBoard logs
+    # the resumed run played fresh episodes: none of the scenes drawn before the kill again
+    drawn_before = before.read_text().split()
+    drawn_after = after.read_text().split()
+    assert len(drawn_before) >= 10 and len(drawn_after) >= 20
+    assert not set(drawn_before) & set(drawn_after)
+    resumed = json.loads((out / "tiny_ppo" / "config.json").read_text())["resume"]
+    assert resumed["num_timesteps"] in saved and resumed["env_seed"] != 1
+
+
+def test_a_run_from_its_config_is_repeatable_and_a_resumed_run_draws_fresh_scenes(tmp_path, monkeypatch):
+    """Two runs from the config alone draw the same scenes and end with the same weights; a
+    run stopped at 128 steps and resumed to 256 draws none of its first 128 steps' scenes."""
+    import torch
+    from stable_baselines3 import PPO
+
+    from evertgym.agents.train import resume_seed, train
+
+    drawn: list[int] = []
+    reset = EversionEnv.reset
+
+    def logging_reset(self, *, seed=None, options=None):
+        out = reset(self, seed=seed, options=options)
+        drawn.append(int(self.scene.spec.seed))
+        return out
+
+    monkeypatch.setattr(EversionEnv, "reset", logging_reset)
+    runs = {}
+    for name in ("a", "b"):
+        cfg = _tiny_config(tmp_path, n_timesteps=128, name="tiny")
+        train(cfg, out_dir=tmp_path / name, progress=False)
+        runs[name] = (list(drawn), PPO.load(str(tmp_path / name / "tiny" / "final.zip"), device="cpu"))
+        drawn.clear()
+    (seeds_a, model_a), (seeds_b, model_b) = runs["a"], runs["b"]
+    assert len(seeds_a) >= 10 and seeds_a == seeds_b
+    for (k, va), vb in zip(model_a.policy.state_dict().items(), model_b.policy.state_dict().values()):
+        assert torch.equal(va, vb), k
+    # stop (the run ended at 128 steps), raise the budget, resume
+    cfg = _tiny_config(tmp_path, n_timesteps=256, name="tiny")
+    train(cfg, out_dir=tmp_path / "a", resume=True, progress=False)
+    assert len(drawn) >= 10 and not set(drawn) & set(seeds_a)
+    assert json.loads((tmp_path / "a" / "tiny" / "config.json").read_text())["resume"] == {
+        "num_timesteps": 128, "env_seed": resume_seed(1, 128)}
+    assert resume_seed(1, 0) == 1 and len({resume_seed(1, n) for n in (1, 64, 128, 256)} | {1}) == 5
 
 
 def test_a_stochastic_policy_is_repeatable_per_episode_seed():
