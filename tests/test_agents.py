@@ -184,6 +184,50 @@ def test_baselines_reject_bad_parameters(kwargs, field):
         make_baseline("teleport")
 
 
+def test_tuned_parameters_are_per_env_and_the_ubend_file_keeps_its_name(tmp_path, monkeypatch):
+    from evertgym.agents import tuned
+    from evertgym.agents.policies import for_env, make_policy
+
+    assert tuned.tuned_path("evertgym/UBend-v0").name == "tuned_operator.json"
+    assert tuned.tuned_path("evertgym/Colon-v0").name == "tuned_operator_Colon-v0.json"
+    legacy = tuned.load_tuned()  # the default before per-env files: tuned on UBend-v0
+    ubend = make_policy(for_env("tuned", "evertgym/UBend-v0"))
+    assert legacy.name == ubend.name == "tuned" and (legacy.start_kpa, legacy.step_kpa) == (ubend.start_kpa, ubend.step_kpa)
+    assert ubend.tuned_on == "evertgym/UBend-v0"
+    # evaluated on an env, "tuned" means tuned on that env; an explicit path or env_id stays
+    assert for_env("tuned", "evertgym/Colon-v0") == {"name": "tuned", "env_id": "evertgym/Colon-v0"}
+    assert for_env({"name": "tuned", "path": "x.json"}, "evertgym/Colon-v0") == {"name": "tuned", "path": "x.json"}
+    assert for_env("operator", "evertgym/Colon-v0") == {"name": "operator"}
+    with pytest.raises(ValueError, match="tuned on env 'evertgym/UBend-v0', not env_id = 'evertgym/Colon-v0'"):
+        tuned.load_tuned(path=tuned.TUNED_PATH, env_id="evertgym/Colon-v0")
+    monkeypatch.setattr(tuned, "shipped_dir", lambda: tmp_path)  # no tuned files at all
+    with pytest.raises(ValueError, match=r"no tuned operator parameters.*scripts/tune_operator.py --env evertgym/Colon-v0"):
+        evaluate(["operator", "tuned"], "evertgym/Colon-v0", 1)  # refused before any episode
+
+
+def test_tuning_uses_training_scenes_only_and_resumes_from_its_log(tmp_path):
+    from evertgym.agents.train import held_out_seeds
+    from evertgym.agents.tuned import load_tuned, tune_operator
+    from evertgym.env.eversion_env import HELD_OUT_SEED_BASE
+
+    grid = {"start_kpa": [1.0, 3.0], "step_kpa": [1.0], "stall_s": [1.0], "relax_kpa_per_s": [0.0]}
+    log, seen = tmp_path / "t.jsonl", []
+    out = tune_operator("evertgym/UBend-v0", 2, log=log, grid=grid, on_result=seen.append)
+    assert len(seen) == 2 and out["env"] == "evertgym/UBend-v0" and out["best"] in seen
+    assert out["best"]["success_rate"] == max(r["success_rate"] for r in seen)
+    scenes = out["training_scene_seeds"]
+    assert len(scenes) == 2 and all(0 <= s < HELD_OUT_SEED_BASE for s in scenes)
+    assert not set(scenes) & set(held_out_seeds(1000).tolist())
+    again: list[dict] = []
+    assert tune_operator("evertgym/UBend-v0", 2, log=log, grid=grid, on_result=again.append) == out
+    assert again == []  # every point came from the log
+    f = tmp_path / "tuned.json"
+    f.write_text(json.dumps(out))
+    assert load_tuned(path=f, env_id="evertgym/UBend-v0").start_kpa == out["best"]["params"]["start_kpa"]
+    with pytest.raises(ValueError, match="episodes = 0"):
+        tune_operator("evertgym/UBend-v0", 0)
+
+
 def test_config_validation(tmp_path):
     p = tmp_path / "bad.toml"
     p.write_text('env_id = "evertgym/UBend-v0"\nalgo = "dqn"\nn_timesteps = 10\n')
@@ -351,3 +395,19 @@ def test_rollout_writes_a_gif_and_the_command_trace(tmp_path):
         assert gif.n_frames == out["frames"] >= 2
     with pytest.raises(ValueError, match=".gif"):
         rollout_gif("operator", "evertgym/UBend-v0", tmp_path / "r.mp4")
+
+
+def test_baseline_table_script_prints_every_policy_on_the_same_held_out_episodes():
+    root = Path(__file__).resolve().parents[1]
+    cmd = [sys.executable, str(root / "scripts" / "baseline_table.py"), "--envs", "evertgym/UBend-v0", "--episodes", "2",
+           "--policies", "constant:pressure_kpa=3;tuned;deflate"]
+    out = subprocess.run(cmd + ["--json"], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    rows = json.loads(out.stdout)["evertgym/UBend-v0"]
+    assert [r["policy"] for r in rows] == ["constant:pressure_kpa=3", "tuned", "deflate"]
+    assert all(r["episodes"] == 2 and 0.0 <= r["ci_low"] <= r["success_rate"] <= r["ci_high"] <= 1.0 for r in rows)
+    text = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert text.returncode == 0 and "scene seeds 1000000000-1000000001" in text.stdout
+    assert "tuned: operator tuned on evertgym/UBend-v0 training scenes" in text.stdout
+    bad = subprocess.run(cmd[:-1] + ["cycle:duty=3"], capture_output=True, text=True, timeout=300)
+    assert bad.returncode != 0 and "duty = 3.0 is out of range" in bad.stderr and "Traceback" not in bad.stderr

@@ -85,7 +85,8 @@ class SB3Policy(Policy):
 
 
 def make_baseline(name: str, **kwargs) -> Policy:
-    """A baseline policy by name (``constant``, ``operator``, ``cycle``, ``deflate``, ``tuned``) with its parameters."""
+    """A baseline policy by name (``constant``, ``operator``, ``cycle``, ``deflate``, ``tuned``) with its parameters
+    (``tuned`` takes ``env_id``, the env whose tuned parameters to load, or a ``path``)."""
     if name == "tuned":
         return load_tuned(**kwargs)
     if name not in BASELINES:
@@ -133,6 +134,16 @@ def policy_desc(desc: dict | str) -> dict:
     if not isinstance(desc, dict):
         raise ValueError(f"policy = {desc!r}: allowed a name, a model path or a dict with a name")
     return dict(desc)
+
+
+def for_env(desc: dict | str, env_id: str) -> dict:
+    """The description of ``desc`` as evaluated on ``env_id``: ``tuned`` without a ``path``
+    or ``env_id`` of its own takes the parameters tuned on ``env_id`` (its training scenes);
+    every other description is unchanged."""
+    d = policy_desc(desc)
+    if d.get("name") == "tuned" and "path" not in d and "env_id" not in d:
+        d["env_id"] = env_id
+    return d
 
 
 def shipped_policies() -> list[str]:
