@@ -405,6 +405,8 @@ def cmd_reproduce_colon(args: argparse.Namespace) -> int:
 
 def _policy_arg(text: str) -> dict:
     """``operator``, ``constant:pressure_kpa=3``, a JSON object or a saved model path."""
+    from evertgym.agents.policies import policy_desc
+
     text = text.strip()
     if text.startswith("{"):
         try:
@@ -412,17 +414,10 @@ def _policy_arg(text: str) -> dict:
         except json.JSONDecodeError as e:
             raise CLIError(f"--policy = {text!r}: malformed JSON: {e}") from None
         return parsed
-    if text.endswith(".zip"):
-        return {"name": "agent", "path": text}
-    name, _, rest = text.partition(":")
-    d: dict = {"name": name}
-    for kv in filter(None, rest.split(",")):
-        k, _, v = kv.partition("=")
-        try:
-            d[k] = float(v)
-        except ValueError:
-            raise CLIError(f"--policy = {text!r}: {k} must be a number") from None
-    return d
+    try:
+        return policy_desc(text)
+    except ValueError as e:
+        raise CLIError(f"--policy: {e}") from None
 
 
 def cmd_score(args: argparse.Namespace) -> int:
@@ -630,7 +625,8 @@ def build_parser() -> argparse.ArgumentParser:
     sc.add_argument("--scene-params", default="{}", help='JSON, e.g. \'{"radius_mm": 30}\'')
     sc.add_argument("--scenes", type=int, default=5, help="number of scene seeds")
     sc.add_argument("--trials", type=int, default=4, help="trials per scene")
-    sc.add_argument("--policy", default="constant:pressure_kpa=3", help="constant:pressure_kpa=3, operator, tuned, a .zip, or JSON")
+    sc.add_argument("--policy", default="constant:pressure_kpa=3",
+                    help="constant:pressure_kpa=3, operator, tuned, cycle:low_kpa=0,high_kpa=3,period_s=1, a .zip, or JSON")
     sc.add_argument("--max-s", type=float, default=20.0, help="time limit per trial (s)")
     sc.add_argument("--band-jitter-mm", type=float, default=25.0, help="band position randomisation (+/- mm)")
     sc.add_argument("--db", default="runs/score.sqlite", help="result store (resumable: finished trials are not rerun)")
@@ -669,7 +665,8 @@ def build_parser() -> argparse.ArgumentParser:
     tr.set_defaults(func=cmd_train)
 
     ev = _sub(sub, "eval", "evaluate policies side by side on the same held-out episodes")
-    ev.add_argument("policies", nargs="+", help="a baseline name (constant, operator, tuned) or a saved model (.zip)")
+    ev.add_argument("policies", nargs="+", help="a baseline (constant, operator, tuned, cycle, deflate), with parameters as "
+                    "name:key=value,... (cycle:low_kpa=0,high_kpa=3,period_s=1), a shipped policy or a saved model (.zip)")
     ev.add_argument("--env", required=True, help="a registered env id, e.g. evertgym/Colon-v0")
     ev.add_argument("--episodes", type=int, default=20, help="held-out episodes per policy (the same seeds for each)")
     ev.add_argument("--json", action="store_true", help=_JSON_HELP)
@@ -680,7 +677,8 @@ def build_parser() -> argparse.ArgumentParser:
     ev.set_defaults(func=cmd_eval)
 
     ro = _sub(sub, "rollout", "render one episode to a GIF")
-    ro.add_argument("policy", help="a baseline (constant, operator, cycle, tuned), a shipped policy (colon_ppo, ubend_ppo) or a .zip")
+    ro.add_argument("policy", help="a baseline (constant, operator, cycle, deflate, tuned; parameters as cycle:low_kpa=0,high_kpa=3), "
+                    "a shipped policy (colon_ppo, ubend_ppo) or a .zip")
     ro.add_argument("--env", required=True, help="a registered env id, e.g. evertgym/Colon-v0")
     ro.add_argument("--out", required=True, help="FILE.gif")
     ro.add_argument("--seed", type=int, default=0, help="episode seed")

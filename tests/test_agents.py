@@ -1,6 +1,7 @@
 """Baselines, SB3 training with checkpoints and resume, evaluation side by side."""
 
 import json
+import re
 import subprocess
 import sys
 import time
@@ -51,12 +52,180 @@ def test_cycling_is_a_square_wave_of_the_control_clock():
         make_baseline("cycle", high_kpa=12.0)
 
 
+def _commands_kpa(policy, n: int, control_hz: float = 10.0, obs_info=None) -> list[float]:
+    env = EversionEnv(scene={"family": "straight", "params": {}}, design={"tube": {"length_mm": 600.0}}, control_hz=control_hz)
+    env.reset(seed=0)
+    policy.reset(env)
+    return [round(float((policy.act(None, {})[0] + 1) * 4), 6) for _ in range(n)]
+
+
+def test_cycle_low_level_period_and_duty_are_parameters_in_python_and_policy_strings():
+    from evertgym.agents.policies import make_policy, policy_desc
+
+    # the 0 <-> 3 kPa, 1 s wave of issue 18, spelled as the CLI spells it
+    assert policy_desc("cycle:low_kpa=0,high_kpa=3,period_s=1") == {"name": "cycle", "low_kpa": 0.0, "high_kpa": 3.0, "period_s": 1.0}
+    wave = _commands_kpa(make_policy("cycle:low_kpa=0,high_kpa=3,period_s=1"), 20)
+    assert wave == ([3.0] * 5 + [0.0] * 5) * 2
+    # duty: the fraction of each period at the high level
+    assert _commands_kpa(make_baseline("cycle", low_kpa=0.0, high_kpa=3.0, period_s=1.0, duty=0.3), 10) == [3.0] * 3 + [0.0] * 7
+    # the historical defaults still hold: 1 <-> 8 kPa, 2 s, half and half
+    assert _commands_kpa(make_policy("cycle"), 20) == [8.0] * 10 + [1.0] * 10
+    assert policy_desc("constant:pressure_kpa=3") == {"name": "constant", "pressure_kpa": 3.0}
+    assert policy_desc("operator") == {"name": "operator"} == policy_desc("operator:")
+
+
+@pytest.mark.parametrize(
+    "desc, message",
+    [
+        ("cycle:duty=1.5", "duty = 1.5 is out of range: allowed (0, 1)"),
+        ("cycle:duty=0", "duty = 0.0 is out of range"),
+        ("cycle:low_kpa=-1", "low_kpa = -1.0 is out of range: allowed [0, 8] kPa"),
+        ("cycle:period_s=0", "period_s = 0.0 is out of range"),
+        ("cycle:low_kpa=zero", "low_kpa must be a number"),
+        ("cycle:low_kpa=0,low_kpa=1", "low_kpa is given twice"),
+        ("cycle:low_kpa=0,3", "'3' is not a parameter"),
+        ("cycle:level_kpa=0", "level_kpa"),
+    ],
+)
+def test_policy_strings_reject_bad_parameters_in_one_line(desc, message):
+    from evertgym.agents.policies import make_policy
+
+    with pytest.raises(ValueError, match=re.escape(message)) as e:
+        make_policy(desc)
+    assert "\n" not in str(e.value)
+
+
+def test_eval_cli_takes_baselines_with_parameters(capsys):
+    from evertgym.cli import main
+
+    argv = ["eval", "cycle:low_kpa=0,high_kpa=3,period_s=1", "cycle", "--env", "evertgym/UBend-v0", "--episodes", "1", "--json"]
+    assert main(argv) == 0
+    rows = json.loads(capsys.readouterr().out)["rows"]
+    assert [r["policy"] for r in rows] == ["cycle:low_kpa=0,high_kpa=3,period_s=1", "cycle"]
+    # the 0 kPa low level deflates; the peak is the 3 kPa high level, not the default 8 kPa
+    assert rows[0]["mean_peak_pressure_kpa"] <= 3.0 + 0.05
+    assert main(["eval", "cycle:duty=2", "--env", "evertgym/UBend-v0", "--episodes", "1"]) == 2
+    err = capsys.readouterr().err
+    assert "duty = 2.0 is out of range" in err and "Traceback" not in err
+
+
+def _stub_env(control_dt: float = 0.1):
+    from types import SimpleNamespace
+
+    return SimpleNamespace(unwrapped=SimpleNamespace(control_dt=control_dt))
+
+
+def test_deflate_on_stall_deflates_after_a_stall_then_resumes():
+    """On a stub insertion trace (10 Hz): growth, a stall, growth again.  The rule holds
+    3 kPa, answers the stall with 0 kPa for 0.5 s (5 steps), then inflates again and holds."""
+    from evertgym.agents.policies import make_policy
+
+    policy = make_policy("deflate:high_kpa=3,low_kpa=0,deflate_s=0.5")
+    policy.reset(_stub_env())
+    lengths = [15.0 + 5.0 * k for k in range(20)]  # 50 mm/s for 2 s
+    lengths += [lengths[-1] + 0.1 * k for k in range(1, 31)]  # stalled (1 mm/s) for 3 s
+    lengths += [lengths[-1] + 5.0 * k for k in range(1, 21)]  # growing again
+    cmds = [round(float((policy.act(None, {"insertion_length_mm": x})[0] + 1) * 4), 6) for x in lengths]
+    first_low = cmds.index(0.0)
+    # the last growing sample is step 19: the stall is seen once the window (1 s) holds < 2 mm
+    assert 19 + 10 <= first_low <= 19 + 11
+    assert cmds[:first_low] == [3.0] * first_low  # growing, then the first second of the stall: inflated
+    assert cmds[first_low:first_low + 5] == [0.0] * 5  # deflated for 0.5 s
+    assert cmds[first_low + 5] == 3.0  # then inflated again
+    assert set(cmds[50:]) == {3.0}  # growing again: no more deflation
+    assert 1 <= policy.deflations <= 2  # the stall lasted 3 s: at most one repeat after a full window at 3 kPa
+    assert policy.max_command_kpa == 3.0
+    # no stall, no deflation
+    policy.reset(_stub_env())
+    assert {round(float((policy.act(None, {"insertion_length_mm": 15.0 + 5.0 * k})[0] + 1) * 4), 6) for k in range(40)} == {3.0}
+    assert policy.deflations == 0
+
+
+def test_deflate_defaults_and_bad_parameters():
+    from evertgym.agents import DeflateOnStall
+    from evertgym.agents.policies import make_policy
+
+    d = make_policy("deflate")
+    assert isinstance(d, DeflateOnStall) and (d.high_kpa, d.low_kpa, d.deflate_s) == (3.0, 0.0, 0.5)
+    for desc, message in [("deflate:deflate_s=0", "deflate_s = 0.0 is out of range"), ("deflate:high_kpa=9", "high_kpa = 9.0"),
+                          ("deflate:stall_mm=-1", "stall_mm = -1.0"), ("deflate:tip_force=1", "tip_force")]:
+        with pytest.raises(ValueError, match=re.escape(message)):
+            make_policy(desc)
+
+
+def test_deflate_on_stall_deflates_in_a_colon_episode():
+    """A held-out Colon-v0 episode: the rule deflates at least once, only to 0 kPa, and
+    never commands more than 3 kPa."""
+    import gymnasium as gym
+
+    from evertgym.agents.evaluate import run_episode
+    from evertgym.agents.policies import make_policy
+    from evertgym.env.eversion_env import HELD_OUT_SEED_BASE
+
+    env = gym.make("evertgym/Colon-v0")
+    policy = make_policy("deflate")
+    seen: list[float] = []
+
+    def record(env, info) -> bool:
+        seen.append(round(env.unwrapped.command_pa / 1e3, 6))
+        return False
+
+    info = run_episode(env, policy, HELD_OUT_SEED_BASE, options={"scene_seed": HELD_OUT_SEED_BASE}, stop=record)
+    assert set(seen) == {0.0, 3.0} and policy.deflations >= 1
+    assert info["peak_pressure_kpa"] <= 3.0 + 0.05
+    assert info["outcome"] in ("success", "time out")
+
+
 @pytest.mark.parametrize("kwargs, field", [(dict(pressure_kpa=9.0), "pressure_kpa"), (dict(pressure_kpa=float("nan")), "pressure_kpa")])
 def test_baselines_reject_bad_parameters(kwargs, field):
     with pytest.raises(ValueError, match=field):
         ConstantPressure(**kwargs)
     with pytest.raises(ValueError, match="unknown baseline"):
         make_baseline("teleport")
+
+
+def test_tuned_parameters_are_per_env_and_the_ubend_file_keeps_its_name(tmp_path, monkeypatch):
+    from evertgym.agents import tuned
+    from evertgym.agents.policies import for_env, make_policy
+
+    assert tuned.tuned_path("evertgym/UBend-v0").name == "tuned_operator.json"
+    assert tuned.tuned_path("evertgym/Colon-v0").name == "tuned_operator_Colon-v0.json"
+    legacy = tuned.load_tuned()  # the default before per-env files: tuned on UBend-v0
+    ubend = make_policy(for_env("tuned", "evertgym/UBend-v0"))
+    assert legacy.name == ubend.name == "tuned" and (legacy.start_kpa, legacy.step_kpa) == (ubend.start_kpa, ubend.step_kpa)
+    assert ubend.tuned_on == "evertgym/UBend-v0"
+    # evaluated on an env, "tuned" means tuned on that env; an explicit path or env_id stays
+    assert for_env("tuned", "evertgym/Colon-v0") == {"name": "tuned", "env_id": "evertgym/Colon-v0"}
+    assert for_env({"name": "tuned", "path": "x.json"}, "evertgym/Colon-v0") == {"name": "tuned", "path": "x.json"}
+    assert for_env("operator", "evertgym/Colon-v0") == {"name": "operator"}
+    with pytest.raises(ValueError, match="tuned on env 'evertgym/UBend-v0', not env_id = 'evertgym/Colon-v0'"):
+        tuned.load_tuned(path=tuned.TUNED_PATH, env_id="evertgym/Colon-v0")
+    monkeypatch.setattr(tuned, "shipped_dir", lambda: tmp_path)  # no tuned files at all
+    with pytest.raises(ValueError, match=r"no tuned operator parameters.*scripts/tune_operator.py --env evertgym/Colon-v0"):
+        evaluate(["operator", "tuned"], "evertgym/Colon-v0", 1)  # refused before any episode
+
+
+def test_tuning_uses_training_scenes_only_and_resumes_from_its_log(tmp_path):
+    from evertgym.agents.train import held_out_seeds
+    from evertgym.agents.tuned import load_tuned, tune_operator
+    from evertgym.env.eversion_env import HELD_OUT_SEED_BASE
+
+    grid = {"start_kpa": [1.0, 3.0], "step_kpa": [1.0], "stall_s": [1.0], "relax_kpa_per_s": [0.0]}
+    log, seen = tmp_path / "t.jsonl", []
+    out = tune_operator("evertgym/UBend-v0", 2, log=log, grid=grid, on_result=seen.append)
+    assert len(seen) == 2 and out["env"] == "evertgym/UBend-v0" and out["best"] in seen
+    assert out["best"]["success_rate"] == max(r["success_rate"] for r in seen)
+    scenes = out["training_scene_seeds"]
+    assert len(scenes) == 2 and all(0 <= s < HELD_OUT_SEED_BASE for s in scenes)
+    assert not set(scenes) & set(held_out_seeds(1000).tolist())
+    again: list[dict] = []
+    assert tune_operator("evertgym/UBend-v0", 2, log=log, grid=grid, on_result=again.append) == out
+    assert again == []  # every point came from the log
+    f = tmp_path / "tuned.json"
+    f.write_text(json.dumps(out))
+    assert load_tuned(path=f, env_id="evertgym/UBend-v0").start_kpa == out["best"]["params"]["start_kpa"]
+    with pytest.raises(ValueError, match="episodes = 0"):
+        tune_operator("evertgym/UBend-v0", 0)
 
 
 def test_config_validation(tmp_path):
@@ -85,21 +254,43 @@ def test_eval_over_worker_processes_gives_the_same_rows():
         evaluate(pols, "evertgym/UBend-v0", 3, workers=0)
 
 
-def _tiny_config(tmp_path: Path) -> Path:
-    cfg = tmp_path / "tiny_ppo.toml"
+def _tiny_config(tmp_path: Path, n_timesteps: int = 512, name: str = "tiny_ppo") -> Path:
+    cfg = tmp_path / f"{name}.toml"
+    # 1 s episodes (10 steps): dozens of resets, so each side of a stop draws many scenes
     cfg.write_text(
-        'env_id = "evertgym/UBend-v0"\nalgo = "ppo"\nseed = 1\nn_envs = 1\nn_timesteps = 512\nnormalize = true\n'
-        "checkpoint_freq = 128\neval_episodes = 0\n[hyperparams]\nn_steps = 64\nbatch_size = 32\nn_epochs = 1\n"
+        f'env_id = "evertgym/UBend-v0"\nalgo = "ppo"\nseed = 1\nn_envs = 1\nn_timesteps = {n_timesteps}\nnormalize = true\n'
+        "checkpoint_freq = 128\neval_episodes = 0\n[env_kwargs]\nmax_episode_s = 1.0\n"
+        "[hyperparams]\nn_steps = 64\nbatch_size = 32\nn_epochs = 1\n"
     )
     return cfg
+
+
+# runs the CLI with every env reset appending its scene seed to a file (flushed per line,
+# so a kill keeps what was drawn before it)
+_SCENE_LOGGER = """
+import sys
+from evertgym.env.eversion_env import EversionEnv
+_reset = EversionEnv.reset
+def reset(self, *, seed=None, options=None):
+    out = _reset(self, seed=seed, options=options)
+    with open(sys.argv[1], "a") as fh:
+        fh.write(f"{self.scene.spec.seed}\\n")
+    return out
+EversionEnv.reset = reset
+from evertgym.cli import main
+sys.exit(main(sys.argv[2:]))
+"""
 
 
 def test_training_killed_after_a_checkpoint_resumes_and_counts_on(tmp_path):
     cfg = _tiny_config(tmp_path)
     out = tmp_path / "runs"
     ckpt = out / "tiny_ppo" / "checkpoints"
-    cmd = [sys.executable, "-m", "evertgym.cli", "train", str(cfg), "--out", str(out), "--no-progress"]
-    proc = subprocess.Popen(cmd)
+    driver = tmp_path / "drive.py"
+    driver.write_text(_SCENE_LOGGER)
+    before, after = tmp_path / "scenes_before_kill.txt", tmp_path / "scenes_after_resume.txt"
+    cmd = ["train", str(cfg), "--out", str(out), "--no-progress"]
+    proc = subprocess.Popen([sys.executable, str(driver), str(before)] + cmd)
     deadline = time.time() + 240
     while time.time() < deadline and not list(ckpt.glob("model_vecnormalize_*_steps.pkl")):
         time.sleep(0.2)  # the statistics are saved after the model: a checkpoint is complete
@@ -108,7 +299,7 @@ def test_training_killed_after_a_checkpoint_resumes_and_counts_on(tmp_path):
     saved = sorted(int(p.name.split("_")[1]) for p in ckpt.glob("model_*_steps.zip"))
     assert saved, "no checkpoint was written before the kill"
     assert not (out / "tiny_ppo" / "final.zip").exists()
-    done = subprocess.run(cmd + ["--resume"], capture_output=True, text=True, timeout=600)
+    done = subprocess.run([sys.executable, str(driver), str(after)] + cmd + ["--resume"], capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr
     summary = json.loads((out / "tiny_ppo" / "eval.json").read_text())
     assert summary["num_timesteps"] >= 512
@@ -119,6 +310,49 @@ def test_training_killed_after_a_checkpoint_resumes_and_counts_on(tmp_path):
     # the counter continued from the checkpoint: it never restarted below it
     assert model.num_timesteps >= max(saved)
     assert list((out / "tiny_ppo" / "tb").rglob("events.out.tfevents*"))  # TensorBoard logs
+    # the resumed run played fresh episodes: none of the scenes drawn before the kill again
+    drawn_before = before.read_text().split()
+    drawn_after = after.read_text().split()
+    assert len(drawn_before) >= 10 and len(drawn_after) >= 20
+    assert not set(drawn_before) & set(drawn_after)
+    resumed = json.loads((out / "tiny_ppo" / "config.json").read_text())["resume"]
+    assert resumed["num_timesteps"] in saved and resumed["env_seed"] != 1
+
+
+def test_a_run_from_its_config_is_repeatable_and_a_resumed_run_draws_fresh_scenes(tmp_path, monkeypatch):
+    """Two runs from the config alone draw the same scenes and end with the same weights; a
+    run stopped at 128 steps and resumed to 256 draws none of its first 128 steps' scenes."""
+    import torch
+    from stable_baselines3 import PPO
+
+    from evertgym.agents.train import resume_seed, train
+
+    drawn: list[int] = []
+    reset = EversionEnv.reset
+
+    def logging_reset(self, *, seed=None, options=None):
+        out = reset(self, seed=seed, options=options)
+        drawn.append(int(self.scene.spec.seed))
+        return out
+
+    monkeypatch.setattr(EversionEnv, "reset", logging_reset)
+    runs = {}
+    for name in ("a", "b"):
+        cfg = _tiny_config(tmp_path, n_timesteps=128, name="tiny")
+        train(cfg, out_dir=tmp_path / name, progress=False)
+        runs[name] = (list(drawn), PPO.load(str(tmp_path / name / "tiny" / "final.zip"), device="cpu"))
+        drawn.clear()
+    (seeds_a, model_a), (seeds_b, model_b) = runs["a"], runs["b"]
+    assert len(seeds_a) >= 10 and seeds_a == seeds_b
+    for (k, va), vb in zip(model_a.policy.state_dict().items(), model_b.policy.state_dict().values()):
+        assert torch.equal(va, vb), k
+    # stop (the run ended at 128 steps), raise the budget, resume
+    cfg = _tiny_config(tmp_path, n_timesteps=256, name="tiny")
+    train(cfg, out_dir=tmp_path / "a", resume=True, progress=False)
+    assert len(drawn) >= 10 and not set(drawn) & set(seeds_a)
+    assert json.loads((tmp_path / "a" / "tiny" / "config.json").read_text())["resume"] == {
+        "num_timesteps": 128, "env_seed": resume_seed(1, 128)}
+    assert resume_seed(1, 0) == 1 and len({resume_seed(1, n) for n in (1, 64, 128, 256)} | {1}) == 5
 
 
 def test_a_stochastic_policy_is_repeatable_per_episode_seed():
@@ -161,3 +395,19 @@ def test_rollout_writes_a_gif_and_the_command_trace(tmp_path):
         assert gif.n_frames == out["frames"] >= 2
     with pytest.raises(ValueError, match=".gif"):
         rollout_gif("operator", "evertgym/UBend-v0", tmp_path / "r.mp4")
+
+
+def test_baseline_table_script_prints_every_policy_on_the_same_held_out_episodes():
+    root = Path(__file__).resolve().parents[1]
+    cmd = [sys.executable, str(root / "scripts" / "baseline_table.py"), "--envs", "evertgym/UBend-v0", "--episodes", "2",
+           "--policies", "constant:pressure_kpa=3;tuned;deflate"]
+    out = subprocess.run(cmd + ["--json"], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    rows = json.loads(out.stdout)["evertgym/UBend-v0"]
+    assert [r["policy"] for r in rows] == ["constant:pressure_kpa=3", "tuned", "deflate"]
+    assert all(r["episodes"] == 2 and 0.0 <= r["ci_low"] <= r["success_rate"] <= r["ci_high"] <= 1.0 for r in rows)
+    text = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert text.returncode == 0 and "scene seeds 1000000000-1000000001" in text.stdout
+    assert "tuned: operator tuned on evertgym/UBend-v0 training scenes" in text.stdout
+    bad = subprocess.run(cmd[:-1] + ["cycle:duty=3"], capture_output=True, text=True, timeout=300)
+    assert bad.returncode != 0 and "duty = 3.0 is out of range" in bad.stderr and "Traceback" not in bad.stderr

@@ -2,6 +2,7 @@
 
 from evertgym.agents.baselines import (
     ConstantPressure,
+    DeflateOnStall,
     OperatorProtocol,
     Policy,
     PressureCycling,
@@ -11,6 +12,6 @@ from evertgym.agents.load import load_policy
 from evertgym.agents.policies import make_baseline, make_policy, shipped_policies
 
 __all__ = [
-    "ConstantPressure", "OperatorProtocol", "Policy", "PressureCycling", "load_policy", "make_baseline", "make_policy",
+    "ConstantPressure", "DeflateOnStall", "OperatorProtocol", "Policy", "PressureCycling", "load_policy", "make_baseline", "make_policy",
     "pressure_to_action", "shipped_policies",
 ]

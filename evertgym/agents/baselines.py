@@ -111,19 +111,30 @@ class OperatorProtocol(Policy):
 
 @dataclass
 class PressureCycling(Policy):
-    """A square wave: ``high_kpa`` for the first half of every ``period_s``, ``low_kpa`` for
-    the second.  Deflating lets a tip jammed against a wall relax and turn before the next
-    inflation pushes it on; it needs neither sensing nor a model."""
+    """Open-loop pressure cycling: a square wave of the control clock, ``high_kpa`` for the
+    first ``duty`` fraction of every ``period_s`` seconds, ``low_kpa`` for the rest.
+
+    Deflating lets a tip jammed against a wall relax and turn before the next inflation
+    pushes it on; it needs neither sensing nor a model.  Only a low level below the
+    eversion threshold deflates the robot: the default 1 kPa <-> 8 kPa wave (2 s) is the
+    historical ``cycle`` baseline; ``cycle:low_kpa=0,high_kpa=3,period_s=1`` is the
+    0 <-> 3 kPa, 1 s wave of issue 18.
+
+    Parameters: ``low_kpa`` and ``high_kpa`` in [0, 8] kPa, ``period_s`` in (0, 600] s,
+    ``duty`` (fraction of the period at ``high_kpa``) in (0, 1).
+    """
 
     low_kpa: float = 1.0
     high_kpa: float = 8.0
     period_s: float = 2.0
+    duty: float = 0.5
     name: str = field(default="cycle", init=False)
 
     def __post_init__(self) -> None:
         check_range("low_kpa", self.low_kpa, 0.0, 8.0, unit="kPa")
         check_range("high_kpa", self.high_kpa, 0.0, 8.0, unit="kPa")
         check_range("period_s", self.period_s, 0.0, 600.0, unit="s", lo_open=True)
+        check_range("duty", self.duty, 0.0, 1.0, lo_open=True, hi_open=True, unit="(fraction of the period at high_kpa)")
 
     @property
     def max_command_kpa(self) -> float:
@@ -136,7 +147,63 @@ class PressureCycling(Policy):
     def act(self, obs, info):
         phase = ((self.steps * self.dt + 1e-9) % self.period_s) / self.period_s  # 1e-9 s: float round-off
         self.steps += 1
-        return pressure_to_action(self.high_kpa if phase < 0.5 else self.low_kpa)
+        return pressure_to_action(self.high_kpa if phase < self.duty else self.low_kpa)
 
 
-BASELINES = {"constant": ConstantPressure, "operator": OperatorProtocol, "cycle": PressureCycling}
+@dataclass
+class DeflateOnStall(Policy):
+    """Hold ``high_kpa``; when progress stalls, deflate to ``low_kpa`` for ``deflate_s``
+    seconds, then inflate again.
+
+    It reads what an operator sees: the measured insertion length
+    (``info["insertion_length_mm"]``) and the clock, never the tip force.  Progress stalls
+    as for :class:`OperatorProtocol`: the insertion grew by less than ``stall_mm`` over the
+    last ``stall_s`` seconds at the high level.  After a deflation the stall window starts
+    afresh, so the robot gets a full ``stall_s`` at ``high_kpa`` before the next one.
+    ``deflate:high_kpa=3,low_kpa=0,deflate_s=0.5`` is the rule of issue 18.
+
+    Parameters: ``high_kpa`` and ``low_kpa`` in [0, 8] kPa, ``deflate_s`` in (0, 60] s,
+    ``stall_s`` in (0, 60] s, ``stall_mm`` in [0, 1000] mm.
+    """
+
+    high_kpa: float = 3.0
+    low_kpa: float = 0.0
+    deflate_s: float = 0.5
+    stall_s: float = 1.0
+    stall_mm: float = 2.0
+    name: str = field(default="deflate", init=False)
+
+    def __post_init__(self) -> None:
+        check_range("high_kpa", self.high_kpa, 0.0, 8.0, unit="kPa")
+        check_range("low_kpa", self.low_kpa, 0.0, 8.0, unit="kPa")
+        check_range("deflate_s", self.deflate_s, 0.0, 60.0, lo_open=True, unit="s")
+        check_range("stall_s", self.stall_s, 0.0, 60.0, lo_open=True, unit="s")
+        check_range("stall_mm", self.stall_mm, 0.0, 1000.0, unit="mm")
+
+    @property
+    def max_command_kpa(self) -> float:
+        return max(self.low_kpa, self.high_kpa)
+
+    def reset(self, env) -> None:
+        super().reset(env)
+        self.window: list[float] = []
+        self.deflate_left = 0  # control steps still to spend at low_kpa
+        self.deflations = 0  # stalls answered this episode
+
+    def act(self, obs, info):
+        if self.deflate_left > 0:
+            self.deflate_left -= 1
+            return pressure_to_action(self.low_kpa)
+        self.window.append(float(info["insertion_length_mm"]))
+        n = max(1, int(round(self.stall_s / self.dt)))
+        if len(self.window) > n:
+            self.window = self.window[-(n + 1) :]
+            if self.window[-1] - self.window[0] < self.stall_mm:
+                self.deflations += 1
+                self.window = []
+                self.deflate_left = max(1, int(round(self.deflate_s / self.dt))) - 1
+                return pressure_to_action(self.low_kpa)
+        return pressure_to_action(self.high_kpa)
+
+
+BASELINES = {"constant": ConstantPressure, "operator": OperatorProtocol, "cycle": PressureCycling, "deflate": DeflateOnStall}

@@ -16,7 +16,7 @@ import gymnasium as gym
 import numpy as np
 
 from evertgym.agents.baselines import Policy
-from evertgym.agents.policies import make_policy, policy_desc
+from evertgym.agents.policies import for_env, make_policy, shipped_policies
 from evertgym.env.eversion_env import HELD_OUT_SEED_BASE
 from evertgym.limits import MAX_EPISODES
 from evertgym.scoring.backends import process_backend, serial_backend
@@ -67,7 +67,8 @@ def evaluate(policies: list[str | dict], env_id: str, episodes: int, env_kwargs:
              progress: bool = False) -> list[dict]:
     """One row per policy: success rate (Wilson 95%), mean time to goal, peak pressure and
     max contact force over ``episodes`` episodes whose seeds (and scene seeds) are
-    ``seed_base + i``, the same for every policy.  ``workers > 1`` spreads the episodes
+    ``seed_base + i``, the same for every policy.  ``tuned`` is the operator tuned on
+    ``env_id`` (:func:`evertgym.agents.policies.for_env`).  ``workers > 1`` spreads the episodes
     over that many processes; every episode is seeded, so the rows do not change.
     ``trust=True`` loads saved models that are not shipped policies (model files are code).
     ``progress`` shows a bar over all policies' episodes (on stderr)."""
@@ -77,11 +78,18 @@ def evaluate(policies: list[str | dict], env_id: str, episodes: int, env_kwargs:
         raise ValueError(f"episodes = {episodes!r} is out of range: allowed integers in [1, {MAX_EPISODES}]")
     if not (isinstance(workers, int) and workers >= 1):
         raise ValueError(f"workers = {workers!r} is out of range: allowed integers >= 1")
+    # "tuned" means the parameters tuned on this env; baselines are built once here, so a
+    # bad parameter or a missing tuned file fails before any episode, in one line
+    descs = [for_env(desc, env_id) for desc in policies]
+    models = {"agent", *shipped_policies()}
+    for d in descs:
+        if d.get("name") not in models:
+            make_policy(d)
     specs = [
         TrialSpec(design={}, design_name=env_id, scene={"family": env_id, "params": dict(env_kwargs or {}), "seed": seed_base + i},
-                  policy={**policy_desc(desc), **({"trust": True} if trust else {})}, seed=seed_base + i, index=i,
+                  policy={**d, **({"trust": True} if trust else {})}, seed=seed_base + i, index=i,
                   group=_label(desc))
-        for desc in policies for i in range(episodes)
+        for desc, d in zip(policies, descs) for i in range(episodes)
     ]
     backend = process_backend if workers > 1 else serial_backend
     infos: dict[str, dict] = {}

@@ -85,7 +85,8 @@ class SB3Policy(Policy):
 
 
 def make_baseline(name: str, **kwargs) -> Policy:
-    """A baseline policy by name (``constant``, ``operator``, ``cycle``, ``tuned``) with its parameters."""
+    """A baseline policy by name (``constant``, ``operator``, ``cycle``, ``deflate``, ``tuned``) with its parameters
+    (``tuned`` takes ``env_id``, the env whose tuned parameters to load, or a ``path``)."""
     if name == "tuned":
         return load_tuned(**kwargs)
     if name not in BASELINES:
@@ -96,8 +97,26 @@ def make_baseline(name: str, **kwargs) -> Policy:
         raise ValueError(f"policy {name!r}: {e}") from None
 
 
+def _parse_params(desc: str, name: str, rest: str) -> dict:
+    """``"low_kpa=0,high_kpa=3"`` -> ``{"name": name, "low_kpa": 0.0, "high_kpa": 3.0}`` (numbers only)."""
+    out: dict = {"name": name}
+    for kv in rest.split(","):
+        k, eq, v = (x.strip() for x in kv.partition("="))
+        if not (k and eq):
+            raise ValueError(f"policy = {desc!r}: {kv.strip()!r} is not a parameter: allowed name:key=value,key=value")
+        if k in out:
+            raise ValueError(f"policy = {desc!r}: {k} is given twice: allowed each parameter once")
+        try:
+            out[k] = float(v)
+        except ValueError:
+            raise ValueError(f"policy = {desc!r}: {k} must be a number (got {v!r})") from None
+    return out
+
+
 def policy_desc(desc: dict | str) -> dict:
     """A policy description as a dict with a ``name``: ``"operator"`` -> ``{"name": "operator"}``,
+    ``"cycle:low_kpa=0,high_kpa=3,period_s=1"`` -> ``{"name": "cycle", "low_kpa": 0.0, ...}``
+    (the CLI's spelling of a baseline with parameters: numbers, kPa/s/mm as the names say),
     ``"model.zip"`` (optionally ``"model.zip:deterministic"`` / ``":stochastic"``) ->
     ``{"name": "agent", "path": ..., ...}``; dicts pass through (copied)."""
     if isinstance(desc, str):
@@ -106,10 +125,25 @@ def policy_desc(desc: dict | str) -> dict:
             if mode not in ("deterministic", "stochastic"):
                 raise ValueError(f"policy = {desc!r}: the mode after '.zip:' must be 'deterministic' or 'stochastic'")
             return {"name": "agent", "path": path + ".zip", "deterministic": mode == "deterministic"}
-        return {"name": "agent", "path": desc} if desc.endswith(".zip") else {"name": desc}
+        if desc.endswith(".zip"):
+            return {"name": "agent", "path": desc}
+        name, colon, rest = desc.partition(":")
+        if colon and "=" in rest:  # "constant:pressure_kpa=3"
+            return _parse_params(desc, name.strip(), rest)
+        return {"name": name.strip() if colon and not rest.strip() else desc}
     if not isinstance(desc, dict):
         raise ValueError(f"policy = {desc!r}: allowed a name, a model path or a dict with a name")
     return dict(desc)
+
+
+def for_env(desc: dict | str, env_id: str) -> dict:
+    """The description of ``desc`` as evaluated on ``env_id``: ``tuned`` without a ``path``
+    or ``env_id`` of its own takes the parameters tuned on ``env_id`` (its training scenes);
+    every other description is unchanged."""
+    d = policy_desc(desc)
+    if d.get("name") == "tuned" and "path" not in d and "env_id" not in d:
+        d["env_id"] = env_id
+    return d
 
 
 def shipped_policies() -> list[str]:
@@ -144,7 +178,7 @@ def make_policy(desc: dict | str, trust: bool = False) -> Policy:
     if name == "agent":
         return SB3Policy(desc["path"], desc.get("deterministic"), trust=trust)
     if name is None:
-        raise ValueError("policy must have a name: constant, operator, tuned or agent")
+        raise ValueError("policy must have a name: constant, operator, cycle, deflate, tuned or agent")
     if name in shipped_policies():  # a shipped trained policy by name, e.g. "colon_ppo"
         return SB3Policy(resolve_policy_path(name), desc.get("deterministic"), trust=trust)
     return make_baseline(name, **desc)

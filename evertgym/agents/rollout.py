@@ -7,10 +7,10 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 
-from evertgym.agents.policies import make_policy
+from evertgym.agents.policies import for_env, make_policy
 
 
-def rollout_gif(policy_desc: str, env_id: str, out: str | Path, seed: int = 0, every: int = 2, trust: bool = False,
+def rollout_gif(policy_desc: str | dict, env_id: str, out: str | Path, seed: int = 0, every: int = 2, trust: bool = False,
                 progress: bool = False) -> dict:
     """Run one episode with ``render_mode="rgb_array"``; every ``every``-th frame goes to ``out``.
     Returns the outcome and the pressure command of every control step (``command_kpa``).
@@ -22,7 +22,7 @@ def rollout_gif(policy_desc: str, env_id: str, out: str | Path, seed: int = 0, e
     out = Path(out)
     if out.suffix.lower() != ".gif":
         raise ValueError(f"--out = {str(out)!r}: expected a .gif file")
-    policy = make_policy(policy_desc, trust=trust)
+    policy = make_policy(for_env(policy_desc, env_id), trust=trust)
     env = gym.make(env_id, render_mode="rgb_array", **getattr(policy, "env_kwargs", {}))
     obs, info = env.reset(seed=seed)
     policy.reset(env)

@@ -21,10 +21,16 @@ VecNormalize statistics every ``checkpoint_freq`` steps), ``final.zip`` (+ its
 ``final_vecnormalize.pkl``) and ``eval.json``.  ``resume=True`` restarts from the newest
 checkpoint and continues the step counter (SB3's ``reset_num_timesteps=False``).
 
-Scene seeds: training episodes draw their scenes from the env's own ``np_random``
-(``seed + rank``); evaluation uses scene seeds from :data:`HELD_OUT_SEED_BASE` upwards,
-which training never draws (:class:`evertgym.env.EversionEnv` keeps training seeds below
-it).
+Scene seeds: training episodes draw their scenes from the env's own ``np_random``, seeded
+``seed + rank`` at the first reset of a run started from its config (so such a run is
+repeatable); evaluation uses scene seeds from :data:`HELD_OUT_SEED_BASE` upwards, which
+training never draws (:class:`evertgym.env.EversionEnv` keeps training seeds below it).
+A resumed run continues with fresh episodes: loading a checkpoint re-seeds everything with
+the config's ``seed`` (SB3 does), which would replay the scenes (and the exploration noise)
+of the run's start, so the resumed run re-seeds the envs, the action noise and the global
+generators with :func:`resume_seed` of the seed and the checkpoint's step count instead
+(written to ``config.json`` as ``resume``).  Resuming twice from the same checkpoint
+plays the same episodes: the ones the run lost with the kill.
 """
 
 from __future__ import annotations
@@ -72,15 +78,26 @@ def load_config(path: str | Path) -> dict:
     return cfg
 
 
-def _make_env_fn(env_id: str, env_kwargs: dict, rank: int, seed: int):
+def _make_env_fn(env_id: str, env_kwargs: dict):
+    """An env factory for SB3's vector envs.  It does not reset the env: the algorithm's
+    first ``VecEnv.reset()`` seeds env ``rank`` with the run's env seed ``+ rank``."""
+
     def make():
         from stable_baselines3.common.monitor import Monitor
 
-        env = Monitor(gym.make(env_id, **env_kwargs))
-        env.reset(seed=seed + rank)
-        return env
+        return Monitor(gym.make(env_id, **env_kwargs))
 
     return make
+
+
+def resume_seed(seed: int, num_timesteps: int) -> int:
+    """The seed a run resumed at ``num_timesteps`` gives its envs (``+ rank``), its action
+    noise and the global generators: a hash of the config's ``seed`` and the step count
+    (a uint32, never ``seed`` itself for a checkpoint after step 0), so the resumed run's
+    scene draws are a fresh stream, not the run's start again."""
+    if num_timesteps <= 0:
+        return int(seed)
+    return int(np.random.SeedSequence([int(seed) & 0xFFFFFFFF, int(num_timesteps), 0x5EED]).generate_state(1)[0])
 
 
 def _checkpoints(ckpt_dir: Path, normalize: bool) -> list[tuple[Path, int]]:
@@ -145,23 +162,28 @@ def train(config_path: str | Path, out_dir: str | Path = "runs", resume: bool = 
     ckpt_dir = run_dir / "checkpoints"
     ckpt_dir.mkdir(parents=True, exist_ok=True)
     n_envs, seed = cfg.get("n_envs", 1), cfg.get("seed", 0)
-    fns = [_make_env_fn(cfg["env_id"], cfg.get("env_kwargs", {}), i, seed) for i in range(n_envs)]
+    fns = [_make_env_fn(cfg["env_id"], cfg.get("env_kwargs", {})) for _ in range(n_envs)]
     venv: VecEnv = SubprocVecEnv(fns) if n_envs > 1 else DummyVecEnv(fns)
     algos: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "sac": SAC}
     algo_cls = algos[cfg["algo"]]
+    resumed: dict[str, int] | None = None
     if resume:
         def load(ckpt: Path, stats: Path | None) -> tuple[BaseAlgorithm, VecEnv]:
             env = VecNormalize.load(str(stats), venv) if stats is not None else venv
             return algo_cls.load(str(ckpt), env=env, device="cpu", tensorboard_log=str(run_dir / "tb")), env
 
         model, venv = _load_checkpoint(ckpt_dir, cfg.get("normalize", False), load)
+        # SB3's load re-seeded the envs' next reset (and the noise) with the config's seed:
+        # the start of the run again.  Continue with fresh episodes instead.
+        resumed = {"num_timesteps": int(model.num_timesteps), "env_seed": resume_seed(seed, model.num_timesteps)}
+        model.set_random_seed(resumed["env_seed"])
     else:
         if cfg.get("normalize", False):
             venv = VecNormalize(venv, norm_obs=True, norm_reward=True)
         hp = dict(cfg.get("hyperparams", {}))
         policy = hp.pop("policy", "MlpPolicy")
         model = algo_cls(policy, venv, seed=seed, device="cpu", verbose=0, tensorboard_log=str(run_dir / "tb"), **hp)
-    (run_dir / "config.json").write_text(json.dumps({"config": cfg, "argv": sys.argv}, indent=2, default=str))
+    (run_dir / "config.json").write_text(json.dumps({"config": cfg, "argv": sys.argv, "resume": resumed}, indent=2, default=str))
     ckpt_cb = CheckpointCallback(
         save_freq=max(1, cfg.get("checkpoint_freq", 10000) // n_envs),
         save_path=str(ckpt_dir),

@@ -1,0 +1,76 @@
+#!/usr/bin/env python
+"""The hand-written baselines side by side on the same held-out episodes of each env (no training).
+
+    python scripts/baseline_table.py [--episodes 20] [--envs evertgym/Colon-v0,...] [--policies ...] [--workers 1] [--json]
+
+For every env, every policy plays the same held-out episodes (episode and scene seeds
+1e9, 1e9 + 1, ...; training never draws them).  The default policies: ``constant`` at
+3 kPa, the paper's ``operator``, ``tuned`` (the operator with the parameters tuned on the
+env's own training scenes, ``scripts/tune_operator.py``), ``cycle`` with its historical
+defaults (1 <-> 8 kPa, 2 s), ``cycle`` 0 <-> 3 kPa with a 1 s period, and ``deflate``
+(3 kPa; on a stall 0 kPa for 0.5 s).  Columns: success (successes / episodes) with its
+Wilson 95% interval, mean time to goal over the successes (s), mean peak pressure (kPa) and
+mean max contact force (N) over all episodes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+
+import evertgym  # noqa: F401
+from evertgym.agents.evaluate import evaluate
+from evertgym.agents.policies import for_env, make_policy
+from evertgym.env.eversion_env import HELD_OUT_SEED_BASE
+
+ENVS = ["evertgym/Colon-v0", "evertgym/UBend-v0", "evertgym/Tortuous-v0"]
+POLICIES = ["constant:pressure_kpa=3", "operator", "tuned", "cycle", "cycle:low_kpa=0,high_kpa=3,period_s=1",
+            "deflate:high_kpa=3,low_kpa=0,deflate_s=0.5"]
+
+
+def _row(r: dict) -> str:
+    k = round(r["success_rate"] * r["episodes"])
+    t = "-" if math.isnan(r["mean_time_to_goal_s"]) else f"{r['mean_time_to_goal_s']:.1f}"
+    return (f"{r['policy']:<44s} {k:>3d}/{r['episodes']:<3d} {r['success_rate']:>5.2f}  [{r['ci_low']:.2f}, {r['ci_high']:.2f}]"
+            f" {t:>9s} {r['mean_peak_pressure_kpa']:>9.2f} {r['mean_max_contact_force_n']:>12.2f}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--episodes", type=int, default=20, help="held-out episodes per env and policy")
+    ap.add_argument("--envs", default=",".join(ENVS), help="comma-separated env ids")
+    ap.add_argument("--policies", default=";".join(POLICIES), help="semicolon-separated policies (CLI spelling)")
+    ap.add_argument("--workers", type=int, default=1, help="processes to spread the episodes over")
+    ap.add_argument("--json", action="store_true", help="print the rows as JSON")
+    args = ap.parse_args(argv)
+    envs = [e.strip() for e in args.envs.split(",") if e.strip()]
+    policies = [p.strip() for p in args.policies.split(";") if p.strip()]
+    out: dict[str, list[dict]] = {}
+    try:
+        for env_id in envs:
+            out[env_id] = evaluate(policies, env_id, args.episodes, workers=args.workers)
+    except ValueError as e:
+        print(f"baseline_table: error: {e}", file=sys.stderr)
+        return 2
+    if args.json:
+        print(json.dumps(out, indent=2))
+        return 0
+    n = args.episodes
+    for env_id, rows in out.items():
+        print(f"{env_id}: {n} held-out episodes (scene seeds {HELD_OUT_SEED_BASE}-{HELD_OUT_SEED_BASE + n - 1}), "
+              "the same for every policy")
+        print(f"{'policy':<44s} {'success':>13s}  {'95% Wilson':<12s} {'goal_s':>9s} {'peak_kpa':>9s} {'max_force_n':>12s}")
+        for r in rows:
+            print(_row(r))
+        if any(p.split(":")[0] == "tuned" for p in policies):
+            t = make_policy(for_env("tuned", env_id))
+            print(f"  tuned: operator tuned on {t.tuned_on} training scenes: start {t.start_kpa:g} kPa, step {t.step_kpa:g} kPa, "  # type: ignore[attr-defined]
+                  f"stall window {t.stall_s:g} s, relax {t.relax_kpa_per_s:g} kPa/s")
+        print()
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
