@@ -9,7 +9,9 @@ the measured insertion length (``info["insertion_length_mm"]``) and the clock.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -39,6 +41,18 @@ class Policy(ABC):
     @abstractmethod
     def act(self, obs: np.ndarray, info: dict) -> np.ndarray:
         """The action in [-1, 1] for this control step."""
+
+
+def run_episode(env: Any, policy: Policy, seed: int, options: dict | None = None,
+                stop: Callable[[Any, dict], bool] | None = None) -> dict:
+    """Play one episode of ``env`` under ``policy`` from ``reset(seed, options)``; returns the
+    last step's ``info``.  ``stop(env, info)``, called after every step, may end it early."""
+    obs, info = env.reset(seed=seed, options=options)
+    policy.reset(env)
+    while True:
+        obs, _, term, trunc, info = env.step(policy.act(obs, info))
+        if term or trunc or (stop is not None and stop(env, info)):
+            return info
 
 
 @dataclass

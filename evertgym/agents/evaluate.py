@@ -9,31 +9,18 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Callable
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 
-from evertgym.agents.baselines import Policy
+from evertgym.agents.baselines import Policy, run_episode
 from evertgym.agents.policies import for_env, make_policy, shipped_policies
 from evertgym.env.eversion_env import HELD_OUT_SEED_BASE
 from evertgym.limits import MAX_EPISODES
 from evertgym.scoring.backends import process_backend, serial_backend
 from evertgym.scoring.spec import TrialSpec, canonical_json
 from evertgym.scoring.stats import wilson_interval
-
-
-def run_episode(env: Any, policy: Policy, seed: int, options: dict | None = None,
-                stop: Callable[[Any, dict], bool] | None = None) -> dict:
-    """Play one episode of ``env`` under ``policy`` from ``reset(seed, options)``; returns the
-    last step's ``info``.  ``stop(env, info)``, called after every step, may end it early."""
-    obs, info = env.reset(seed=seed, options=options)
-    policy.reset(env)
-    while True:
-        obs, _, term, trunc, info = env.step(policy.act(obs, info))
-        if term or trunc or (stop is not None and stop(env, info)):
-            return info
 
 
 @functools.lru_cache(maxsize=4)

@@ -20,7 +20,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from evertgym.agents.baselines import OperatorProtocol
+from evertgym.agents.baselines import OperatorProtocol, run_episode
 
 #: the search: start pressure (kPa), step (kPa), stall window (s), relaxation (kPa/s)
 GRID: dict[str, list[float]] = {"start_kpa": [1.0, 2.0, 3.0], "step_kpa": [0.25, 0.5, 1.0], "stall_s": [0.5, 1.0],
@@ -100,7 +100,6 @@ def tune_operator(env_id: str, episodes: int, log: str | Path | None = None, gri
     import gymnasium as gym
 
     import evertgym.env  # noqa: F401  (registers the presets)
-    from evertgym.agents.evaluate import run_episode
     from evertgym.env.eversion_env import HELD_OUT_SEED_BASE
 
     if not (isinstance(episodes, int) and not isinstance(episodes, bool) and 1 <= episodes <= 10_000):
