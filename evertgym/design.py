@@ -47,6 +47,11 @@ MAX_THICKNESS_TO_RADIUS = 0.1
 #: The shortest body the simulator builds and grows with its default settings: its 15 mm
 #: initial chain plus one 7.5 mm segment (shorter ones abort inside Chipmunk).
 MIN_LENGTH_M = 0.025
+#: The thinnest wall accepted (m): 1 um, 50x thinner than the paper's 50 um TPU film.
+#: Thinner walls (down to denormal floats) give segment masses Chipmunk aborts on.
+MIN_WALL_THICKNESS_M = 1e-6
+#: The narrowest tube accepted (m): 1 mm, 40x narrower than the paper's 40 mm.
+MIN_DIAMETER_M = 1e-3
 #: The most bands a design may carry.
 MAX_BANDS = 1000
 
@@ -119,13 +124,13 @@ class TubeDesign:
     pressure_stiffening: float | None = None
 
     def __post_init__(self) -> None:
-        d = _in_range("diameter_m", self.diameter_m, 0.0, 0.5, lo_open=True, hi_open=False, unit="m")
+        d = _in_range("diameter_m", self.diameter_m, MIN_DIAMETER_M, 0.5, lo_open=False, hi_open=False, unit="m")
         t = _in_range(
             "wall_thickness_m",
             self.wall_thickness_m,
-            0.0,
+            MIN_WALL_THICKNESS_M,
             MAX_THICKNESS_TO_RADIUS * d / 2,
-            lo_open=True,
+            lo_open=False,
             hi_open=True,
             unit="m (thin-walled: below 0.1 x radius)",
         )
@@ -211,12 +216,14 @@ class TubeDesign:
         kw: dict[str, Any] = {}
         # ranges checked here in the file's own units, so errors name the file's fields
         if "diameter_mm" in tube:
-            kw["diameter_m"] = _in_range("tube.diameter_mm", tube["diameter_mm"], 0.0, 500.0, lo_open=True, hi_open=False,
+            kw["diameter_m"] = _in_range("tube.diameter_mm", tube["diameter_mm"], MIN_DIAMETER_M * 1e3, 500.0, lo_open=False,
+                                         hi_open=False,
                                          unit="mm") / 1e3
         if "wall_thickness_mm" in tube:
             radius_mm = kw.get("diameter_m", cls.diameter_m) * 1e3 / 2
-            kw["wall_thickness_m"] = _in_range("tube.wall_thickness_mm", tube["wall_thickness_mm"], 0.0,
-                                               MAX_THICKNESS_TO_RADIUS * radius_mm, lo_open=True, hi_open=True,
+            kw["wall_thickness_m"] = _in_range("tube.wall_thickness_mm", tube["wall_thickness_mm"],
+                                               MIN_WALL_THICKNESS_M * 1e3, MAX_THICKNESS_TO_RADIUS * radius_mm,
+                                               lo_open=False, hi_open=True,
                                                unit="mm (thin-walled: below 0.1 x radius)") / 1e3
         if "length_mm" in tube:
             kw["length_m"] = _in_range("tube.length_mm", tube["length_mm"], MIN_LENGTH_M * 1e3, 20e3, lo_open=False,

@@ -10,10 +10,11 @@ from evertgym.design import Band, DesignError, TubeDesign
 @pytest.mark.parametrize(
     "kwargs, field, allowed",
     [
-        (dict(diameter_m=-0.04), "diameter_m", "(0, 0.5]"),
-        (dict(diameter_m=0.0), "diameter_m", "(0, 0.5]"),
+        (dict(diameter_m=-0.04), "diameter_m", "[0.001, 0.5]"),
+        (dict(diameter_m=0.0), "diameter_m", "[0.001, 0.5]"),
         (dict(diameter_m=float("nan")), "diameter_m", "not finite"),
-        (dict(wall_thickness_m=0.0), "wall_thickness_m", "(0, 0.002)"),
+        (dict(wall_thickness_m=0.0), "wall_thickness_m", "[1e-06, 0.002)"),
+        (dict(wall_thickness_m=5e-324), "wall_thickness_m", "[1e-06, 0.002)"),  # Chipmunk aborted on it
         (dict(wall_thickness_m=0.005), "wall_thickness_m", "thin-walled"),
         (dict(length_m=-1.0), "length_m", "[0.025, 20]"),
         (dict(length_m="long"), "length_m", "not a number"),
@@ -79,7 +80,10 @@ def test_bands_from_tip_convert_to_body_coordinates():
 @pytest.mark.parametrize(
     "text, message",
     [
-        ("[tube]\ndiameter_mm = -40\n", "tube.diameter_mm = -40.0 is out of range: allowed (0, 500] mm"),
+        ("[tube]\ndiameter_mm = -40\n", "tube.diameter_mm = -40.0 is out of range: allowed [1, 500] mm"),
+        # a denormal wall passed the old open bound (0, ...) and made Chipmunk abort on the segment mass
+        ("[tube]\nwall_thickness_mm = 2.225073858507203e-309\n",
+         "tube.wall_thickness_mm = 2.225073858507203e-309 is out of range: allowed [0.001, 2) mm"),
         ("[tube]\nlength_mm = 600\n[[bands]]\nposition_mm = 800\nreduction = 0.1\n",
          "bands[0].position_mm = 800 is out of range: allowed [7.5, 592.5] mm"),
         ("[[bands]]\nposition_mm = 300\nreduction = 0.1\n[[bands]]\nposition_mm = 200\nreduction = 0.1\n"

@@ -7,6 +7,11 @@ from dataclasses import asdict, dataclass
 from evertgym._validate import check_range as _check
 from evertgym.model.eversion import GROWTH_GAIN_M_PER_S_PER_PA, MAX_GROWTH_SPEED_M_PER_S
 
+#: the finest pymunk step accepted (s): 200x finer than the default 2 ms; below it one
+#: simulated second costs over 100,000 substeps (tens of seconds of wall time), and an
+#: accidental 1e-9 would never finish
+MIN_DT_S = 1e-5
+
 
 @dataclass(frozen=True)
 class SimConfig:
@@ -96,7 +101,7 @@ class SimConfig:
 
     def __post_init__(self) -> None:
         _check("segment_length_m", self.segment_length_m, 0.0005, 0.05, lo_open=False)
-        _check("dt_s", self.dt_s, 0.0, 0.01, lo_open=True)
+        _check("dt_s", self.dt_s, MIN_DT_S, 0.01)
         _check("damping", self.damping, 0.0, 1.0, lo_open=True)
         _check("inertia_factor", self.inertia_factor, 1.0, 1e6)
         _check("mass_ratio", self.mass_ratio, 0.0, 1.0, lo_open=True)
