@@ -500,15 +500,15 @@ def cmd_optimize(args: argparse.Namespace) -> int:
 def cmd_train(args: argparse.Namespace) -> int:
     from evertgym.agents.train import train
 
-    summary = train(args.config, out_dir=args.out, resume=args.resume, progress=args.progress and not args.json)
+    summary = train(args.config, out_dir=args.out, resume=args.resume, progress=args.progress and not args.json, seed=args.seed)
     if args.json:
         print(dumps(summary, indent=2))
         return 0
     from evertgym.agents.train import load_config
 
-    name = load_config(args.config)["name"]
+    name = load_config(args.config, args.seed)["name"]
     run_dir = Path(args.out) / name
-    print(f"trained {summary['num_timesteps']} env steps; model: {run_dir / 'final.zip'} "
+    print(f"trained {summary['num_timesteps']} env steps in {summary['train_wall_s'] / 60:.1f} min; model: {run_dir / 'final.zip'} "
           f"(TensorBoard: tensorboard --logdir {run_dir / 'tb'})")
     for r in summary.get("eval", []):
         print(f"  {r['policy'][-40:]:40s} success {r['success_rate']:.2f} [{r['ci_low']:.2f}, {r['ci_high']:.2f}] "
@@ -660,6 +660,8 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("config", help="a training config, e.g. agents/ubend_ppo.toml")
     tr.add_argument("--out", default="runs", help="runs folder (default: runs/)")
     tr.add_argument("--resume", action="store_true", help="continue from the newest checkpoint")
+    tr.add_argument("--seed", type=int, default=None,
+                    help="replace the config's seed; the run goes to <out>/<name>_seed<N> (default: the config's seed)")
     tr.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
     tr.add_argument("--json", action="store_true", help="print the summary as JSON (for machines)")
     tr.set_defaults(func=cmd_train)

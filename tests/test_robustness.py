@@ -247,6 +247,7 @@ def _cli_cases(tmp: Path) -> list[tuple[list[str], str]]:
         (["optimize", "--trials", "-1"], "--trials"),
         (["reproduce", "ubend", "--workers", "1000", "--db", str(tmp / "u.sqlite")], "--workers"),
         (["train", str(tmp / "nope.toml"), "--out", str(tmp)], "nope.toml"),
+        (["train", str(ROOT / "agents" / "ubend_ppo.toml"), "--out", str(tmp), "--seed", "-1"], "seed = -1"),
     ]
 
 

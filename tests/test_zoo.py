@@ -39,6 +39,15 @@ def test_two_configs_of_one_algo_for_one_env_are_rejected(tmp_path):
         zoo_files(sorted(tmp_path.glob("*.toml")))
 
 
+def test_a_variant_marked_zoo_false_is_left_out(tmp_path):
+    (tmp_path / "a.toml").write_text('env_id = "evertgym/UBend-v0"\nalgo = "ppo"\nn_timesteps = 10\n')
+    (tmp_path / "b.toml").write_text('env_id = "evertgym/UBend-v0"\nalgo = "ppo"\nn_timesteps = 20\nzoo = false\n')
+    assert "n_timesteps: 10" in zoo_files(sorted(tmp_path.glob("*.toml")))["ppo"]
+    (tmp_path / "b.toml").write_text('env_id = "evertgym/UBend-v0"\nalgo = "ppo"\nn_timesteps = 20\nzoo = "no"\n')
+    with pytest.raises(ValueError, match="zoo = 'no': allowed true or false"):
+        zoo_files(sorted(tmp_path.glob("*.toml")))
+
+
 @pytest.mark.slow
 def test_rl_zoo3_trains_with_our_hyperparameters(tmp_path):
     pytest.importorskip("rl_zoo3")

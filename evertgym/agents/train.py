@@ -38,6 +38,7 @@ from __future__ import annotations
 import json
 import re
 import sys
+import time
 from pathlib import Path
 from typing import Any
 
@@ -54,14 +55,20 @@ from evertgym.env.eversion_env import HELD_OUT_SEED_BASE
 ALGOS = ("ppo", "sac")
 
 
-def load_config(path: str | Path) -> dict:
-    """Read and validate a training config (errors name the field)."""
+def load_config(path: str | Path, seed: int | None = None) -> dict:
+    """Read and validate a training config (errors name the field).  ``seed`` replaces the
+    config's seed and names the run ``<name>_seed<seed>``, so the seeds of one config train
+    side by side into their own folders."""
     path = Path(path)
     try:
         cfg = tomllib.loads(path.read_text(encoding="utf-8"))
     except (OSError, tomllib.TOMLDecodeError) as e:
         raise ValueError(f"{path}: cannot read the config: {e}") from None
     cfg.setdefault("name", path.stem)
+    if seed is not None:
+        if not (isinstance(seed, int) and not isinstance(seed, bool) and 0 <= seed < 2**31):
+            raise ValueError(f"seed = {seed!r} is out of range: allowed integers in [0, {2**31 - 1}]")
+        cfg["seed"], cfg["name"] = seed, f"{cfg['name']}_seed{seed}"
     # the run folder is <out>/<name>: a plain folder name keeps every output inside --out
     if not (isinstance(cfg["name"], str) and re.fullmatch(r"[A-Za-z0-9_][A-Za-z0-9_.-]{0,99}", cfg["name"])):
         raise ValueError(f"{path}: name = {cfg['name']!r} is not allowed: allowed a folder name of letters, digits, "
@@ -69,6 +76,8 @@ def load_config(path: str | Path) -> dict:
     for key, kind in (("env_id", str), ("algo", str), ("n_timesteps", int)):
         if not isinstance(cfg.get(key), kind):
             raise ValueError(f"{path}: {key} is required ({kind.__name__})")
+    if not isinstance(cfg.get("zoo", True), bool):
+        raise ValueError(f"{path}: zoo = {cfg['zoo']!r}: allowed true or false")
     if cfg["algo"] not in ALGOS:
         raise ValueError(f"{path}: algo = {cfg['algo']!r}: allowed {ALGOS}")
     for key, lo, hi in (("n_envs", 1, 64), ("n_timesteps", 1, 10**9), ("checkpoint_freq", 1, 10**9), ("eval_episodes", 0, 10**6)):
@@ -140,8 +149,11 @@ def _load_checkpoint(ckpt_dir: Path, normalize: bool, load):
     raise ValueError(f"--resume: no complete checkpoint in {ckpt_dir}" + (f" (torn: {', '.join(errors)})" if errors else ""))
 
 
-def train(config_path: str | Path, out_dir: str | Path = "runs", resume: bool = False, progress: bool = True) -> dict:
-    """Train (or resume) the config's agent; returns the final evaluation summary."""
+def train(config_path: str | Path, out_dir: str | Path = "runs", resume: bool = False, progress: bool = True,
+          seed: int | None = None) -> dict:
+    """Train (or resume) the config's agent; returns the final evaluation summary with the
+    training's wall time (``train_wall_s``, s).  ``seed`` overrides the config's (see
+    :func:`load_config`)."""
     from evertgym.agents.load import require_rl
 
     require_rl("training")
@@ -157,7 +169,7 @@ def train(config_path: str | Path, out_dir: str | Path = "runs", resume: bool = 
     )
 
     torch.set_num_threads(1)  # small MLPs: threads only fight the env workers for the cores
-    cfg = load_config(config_path)
+    cfg = load_config(config_path, seed)
     run_dir = Path(out_dir) / cfg["name"]
     ckpt_dir = run_dir / "checkpoints"
     ckpt_dir.mkdir(parents=True, exist_ok=True)
@@ -194,6 +206,7 @@ def train(config_path: str | Path, out_dir: str | Path = "runs", resume: bool = 
     if progress:
         callbacks.append(_TqdmCallback(cfg["n_timesteps"], model.num_timesteps))
     remaining = cfg["n_timesteps"] - model.num_timesteps
+    t0 = time.perf_counter()
     if remaining > 0:
         model.learn(total_timesteps=remaining, callback=CallbackList(callbacks), reset_num_timesteps=False, tb_log_name=cfg["name"])
     model.save(str(run_dir / "final"))
@@ -202,7 +215,7 @@ def train(config_path: str | Path, out_dir: str | Path = "runs", resume: bool = 
     if isinstance(venv, VecNormalize):
         venv.save(str(run_dir / "final_vecnormalize.pkl"))
     venv.close()
-    summary: dict[str, Any] = {"num_timesteps": int(model.num_timesteps)}
+    summary: dict[str, Any] = {"num_timesteps": int(model.num_timesteps), "train_wall_s": time.perf_counter() - t0}
     if cfg.get("eval_episodes", 0) > 0:
         from evertgym.agents.evaluate import evaluate
 

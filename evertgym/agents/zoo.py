@@ -38,12 +38,15 @@ def zoo_hyperparams(cfg: dict) -> dict[str, Any]:
 
 
 def zoo_files(config_paths: list[str | Path]) -> dict[str, str]:
-    """``{algo: YAML text}``: every config's entry under its env id, one file per algorithm."""
+    """``{algo: YAML text}``: every config's entry under its env id, one file per algorithm.
+    A config with ``zoo = false`` (a variant beside an env's main config) is left out."""
     import yaml
 
     by_algo: dict[str, dict[str, dict]] = {}
     for path in sorted(map(Path, config_paths)):
         cfg = load_config(path)
+        if not cfg.get("zoo", True):
+            continue
         entries = by_algo.setdefault(cfg["algo"], {})
         if cfg["env_id"] in entries:
             raise ValueError(f"{path}: a second {cfg['algo']} config for {cfg['env_id']}; rl-zoo3 takes one per env")
