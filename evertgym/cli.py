@@ -504,10 +504,7 @@ def cmd_train(args: argparse.Namespace) -> int:
     if args.json:
         print(dumps(summary, indent=2))
         return 0
-    from evertgym.agents.train import load_config
-
-    name = load_config(args.config, args.seed)["name"]
-    run_dir = Path(args.out) / name
+    run_dir = Path(summary["run_dir"])
     print(f"trained {summary['num_timesteps']} env steps in {summary['train_wall_s'] / 60:.1f} min; model: {run_dir / 'final.zip'} "
           f"(TensorBoard: tensorboard --logdir {run_dir / 'tb'})")
     for r in summary.get("eval", []):

@@ -50,6 +50,7 @@ else:  # pragma: no cover
 import gymnasium as gym
 import numpy as np
 
+from evertgym._validate import check_int
 from evertgym.env.eversion_env import HELD_OUT_SEED_BASE
 
 ALGOS = ("ppo", "sac")
@@ -66,9 +67,8 @@ def load_config(path: str | Path, seed: int | None = None) -> dict:
         raise ValueError(f"{path}: cannot read the config: {e}") from None
     cfg.setdefault("name", path.stem)
     if seed is not None:
-        if not (isinstance(seed, int) and not isinstance(seed, bool) and 0 <= seed < 2**31):
-            raise ValueError(f"seed = {seed!r} is out of range: allowed integers in [0, {2**31 - 1}]")
-        cfg["seed"], cfg["name"] = seed, f"{cfg['name']}_seed{seed}"
+        cfg["seed"] = check_int("seed", seed, 0, 2**31 - 1)
+        cfg["name"] = f"{cfg['name']}_seed{seed}"
     # the run folder is <out>/<name>: a plain folder name keeps every output inside --out
     if not (isinstance(cfg["name"], str) and re.fullmatch(r"[A-Za-z0-9_][A-Za-z0-9_.-]{0,99}", cfg["name"])):
         raise ValueError(f"{path}: name = {cfg['name']!r} is not allowed: allowed a folder name of letters, digits, "
@@ -152,7 +152,7 @@ def _load_checkpoint(ckpt_dir: Path, normalize: bool, load):
 def train(config_path: str | Path, out_dir: str | Path = "runs", resume: bool = False, progress: bool = True,
           seed: int | None = None) -> dict:
     """Train (or resume) the config's agent; returns the final evaluation summary with the
-    training's wall time (``train_wall_s``, s).  ``seed`` overrides the config's (see
+    training's wall time (``train_wall_s``, s) and the run folder (``run_dir``).  ``seed`` overrides the config's (see
     :func:`load_config`)."""
     from evertgym.agents.load import require_rl
 
@@ -215,7 +215,8 @@ def train(config_path: str | Path, out_dir: str | Path = "runs", resume: bool = 
     if isinstance(venv, VecNormalize):
         venv.save(str(run_dir / "final_vecnormalize.pkl"))
     venv.close()
-    summary: dict[str, Any] = {"num_timesteps": int(model.num_timesteps), "train_wall_s": time.perf_counter() - t0}
+    summary: dict[str, Any] = {"num_timesteps": int(model.num_timesteps), "train_wall_s": time.perf_counter() - t0,
+                               "run_dir": str(run_dir)}
     if cfg.get("eval_episodes", 0) > 0:
         from evertgym.agents.evaluate import evaluate
 
