@@ -517,17 +517,22 @@ def cmd_eval(args: argparse.Namespace) -> int:
     from evertgym.agents.evaluate import evaluate
     from evertgym.cli_guard import check_eval_flags
 
-    check_eval_flags(args)
-    rows = evaluate(args.policies, args.env, args.episodes, workers=args.workers, trust=args.trust_model, progress=not args.json)
+    env_kwargs = check_eval_flags(args)
+    rows = evaluate(args.policies, args.env, args.episodes, env_kwargs=env_kwargs, workers=args.workers,
+                    trust=args.trust_model, progress=not args.json)
     if args.json:
         print(dumps({"rows": rows}))
         return 0
-    print(f"{'policy':30s} {'episodes':>8s} {'success':>8s} {'95% CI':>15s} {'time_to_goal_s':>14s} {'peak_kpa':>9s} {'max_force_n':>11s}")
+    print(f"{'policy':30s} {'episodes':>8s} {'success':>8s} {'95% CI':>15s} {'time_to_goal_s':>14s} {'peak_kpa':>9s} "
+          f"{'max_force_n':>11s} {'bend_peak_kpa':>13s} {'peak<bend':>9s}")
     for r in rows:
         print(
             f"{r['policy'][-30:]:30s} {r['episodes']:>8d} {r['success_rate']:>8.2f} [{r['ci_low']:.2f}, {r['ci_high']:.2f}]".ljust(65)
             + f" {r['mean_time_to_goal_s']:>14.2f} {r['mean_peak_pressure_kpa']:>9.2f} {r['mean_max_contact_force_n']:>11.2f}"
+            + f" {r['mean_peak_pressure_bend_kpa']:>13.2f} {r['peak_before_bend_episodes']:>9d}"
         )
+    print("bend_peak_kpa: peak measured pressure with the tip in the scene's bend (mean over the episodes that reached it); "
+          "peak<bend: episodes whose peak came before the bend (start-up or approach)")
     return 0
 
 
@@ -668,6 +673,9 @@ def build_parser() -> argparse.ArgumentParser:
                     "name:key=value,... (cycle:low_kpa=0,high_kpa=3,period_s=1), a shipped policy or a saved model (.zip)")
     ev.add_argument("--env", required=True, help="a registered env id, e.g. evertgym/Colon-v0")
     ev.add_argument("--episodes", type=int, default=20, help="held-out episodes per policy (the same seeds for each)")
+    ev.add_argument("--env-kwargs", default=None, metavar="JSON",
+                    help='env arguments for every policy, a JSON object, e.g. \'{"regulator_tau_s": [0.1, 0.6]}\' '
+                         "(a randomised regulator lag); a trained model's own observation flags still apply")
     ev.add_argument("--json", action="store_true", help=_JSON_HELP)
     ev.add_argument("--workers", type=int, default=1, help="processes to spread the episodes over (default 1)")
     ev.add_argument("--force-workers", action="store_true", help="allow more --workers than CPUs")

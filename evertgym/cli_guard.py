@@ -195,16 +195,41 @@ def check_policy(flag: str, desc: Any, trust: bool) -> None:
         raise ValueError(f"{flag} = {desc!r}: {e}") from None
 
 
-def check_eval_flags(args: argparse.Namespace) -> None:
-    """``evertgym eval``: counts, workers, the env id and every policy, before any episode."""
+def check_eval_flags(args: argparse.Namespace) -> dict:
+    """``evertgym eval``: counts, workers, the env id, ``--env-kwargs`` and every policy,
+    before any episode.  Returns the env kwargs (``{}`` without the flag)."""
     from evertgym.limits import MAX_EPISODES, check_workers
 
     if not 1 <= args.episodes <= MAX_EPISODES:
         raise ValueError(f"--episodes = {args.episodes} is out of range: allowed [1, {MAX_EPISODES}]")
     check_workers(args.workers, args.force_workers, "--workers")
     check_env_id("--env", args.env)
+    env_kwargs = check_env_kwargs("--env-kwargs", getattr(args, "env_kwargs", None), args.env)
     for desc in args.policies:
         check_policy("policy", desc, args.trust_model)
+    return env_kwargs
+
+
+def check_env_kwargs(flag: str, text: str | None, env_id: str) -> dict:
+    """A JSON object of env arguments, checked by building the env once (its own one-line errors)."""
+    import json
+
+    import gymnasium as gym
+
+    if text is None:
+        return {}
+    try:
+        kwargs = json.loads(text)
+    except json.JSONDecodeError as e:
+        raise ValueError(f"{flag} = {text!r:.80}: not JSON ({e.msg} at character {e.pos}); "
+                         "expected an object such as '{\"regulator_tau_s\": [0.1, 0.6]}'") from None
+    if not isinstance(kwargs, dict):
+        raise ValueError(f"{flag} = {text!r:.80}: expected a JSON object of env arguments, got {type(kwargs).__name__}")
+    try:
+        gym.make(env_id, **kwargs).close()
+    except TypeError as e:  # an unknown argument name
+        raise ValueError(f"{flag}: {str(e).split(' was raised from')[0]}") from None
+    return kwargs
 
 
 def check_rollout_flags(args: argparse.Namespace) -> None:

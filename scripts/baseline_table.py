@@ -1,7 +1,8 @@
 #!/usr/bin/env python
 """The hand-written baselines side by side on the same held-out episodes of each env (no training).
 
-    python scripts/baseline_table.py [--episodes 20] [--envs evertgym/Colon-v0,...] [--policies ...] [--workers 1] [--json]
+    python scripts/baseline_table.py [--episodes 20] [--envs evertgym/Colon-v0,...] [--policies ...] [--workers 1]
+                                     [--env-kwargs JSON] [--json]
 
 For every env, every policy plays the same held-out episodes (episode and scene seeds
 1e9, 1e9 + 1, ...; training never draws them).  The default policies: ``constant`` at
@@ -10,7 +11,10 @@ env's own training scenes, ``scripts/tune_operator.py``), ``cycle`` with its his
 defaults (1 <-> 8 kPa, 2 s), ``cycle`` 0 <-> 3 kPa with a 1 s period, and ``deflate``
 (3 kPa; on a stall 0 kPa for 0.5 s).  Columns: success (successes / episodes) with its
 Wilson 95% interval, mean time to goal over the successes (s), mean peak pressure (kPa) and
-mean max contact force (N) over all episodes.
+mean max contact force (N) over all episodes, mean peak pressure with the tip in the scene's
+bend (kPa, over the episodes that reached it) and how many episodes peaked before the bend
+(a start-up or approach peak).  ``--env-kwargs`` applies env arguments to every policy (a
+randomised regulator lag: ``'{"regulator_tau_s": [0.1, 0.6]}'``).
 """
 
 from __future__ import annotations
@@ -23,6 +27,7 @@ import sys
 import evertgym  # noqa: F401
 from evertgym.agents.evaluate import evaluate
 from evertgym.agents.policies import for_env, make_policy
+from evertgym.cli_guard import check_env_kwargs
 from evertgym.env.eversion_env import HELD_OUT_SEED_BASE
 
 ENVS = ["evertgym/Colon-v0", "evertgym/UBend-v0", "evertgym/Tortuous-v0"]
@@ -34,7 +39,8 @@ def _row(r: dict) -> str:
     k = round(r["success_rate"] * r["episodes"])
     t = "-" if math.isnan(r["mean_time_to_goal_s"]) else f"{r['mean_time_to_goal_s']:.1f}"
     return (f"{r['policy']:<44s} {k:>3d}/{r['episodes']:<3d} {r['success_rate']:>5.2f}  [{r['ci_low']:.2f}, {r['ci_high']:.2f}]"
-            f" {t:>9s} {r['mean_peak_pressure_kpa']:>9.2f} {r['mean_max_contact_force_n']:>12.2f}")
+            f" {t:>9s} {r['mean_peak_pressure_kpa']:>9.2f} {r['mean_max_contact_force_n']:>12.2f}"
+            f" {r['mean_peak_pressure_bend_kpa']:>9.2f} {r['peak_before_bend_episodes']:>9d}")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -43,6 +49,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--envs", default=",".join(ENVS), help="comma-separated env ids")
     ap.add_argument("--policies", default=";".join(POLICIES), help="semicolon-separated policies (CLI spelling)")
     ap.add_argument("--workers", type=int, default=1, help="processes to spread the episodes over")
+    ap.add_argument("--env-kwargs", default=None, metavar="JSON",
+                    help='env arguments for every env and policy, e.g. \'{"regulator_tau_s": [0.1, 0.6]}\'')
     ap.add_argument("--json", action="store_true", help="print the rows as JSON")
     args = ap.parse_args(argv)
     envs = [e.strip() for e in args.envs.split(",") if e.strip()]
@@ -50,7 +58,8 @@ def main(argv: list[str] | None = None) -> int:
     out: dict[str, list[dict]] = {}
     try:
         for env_id in envs:
-            out[env_id] = evaluate(policies, env_id, args.episodes, workers=args.workers)
+            kwargs = check_env_kwargs("--env-kwargs", args.env_kwargs, env_id)
+            out[env_id] = evaluate(policies, env_id, args.episodes, env_kwargs=kwargs, workers=args.workers)
     except ValueError as e:
         print(f"baseline_table: error: {e}", file=sys.stderr)
         return 2
@@ -61,7 +70,10 @@ def main(argv: list[str] | None = None) -> int:
     for env_id, rows in out.items():
         print(f"{env_id}: {n} held-out episodes (scene seeds {HELD_OUT_SEED_BASE}-{HELD_OUT_SEED_BASE + n - 1}), "
               "the same for every policy")
-        print(f"{'policy':<44s} {'success':>13s}  {'95% Wilson':<12s} {'goal_s':>9s} {'peak_kpa':>9s} {'max_force_n':>12s}")
+        if args.env_kwargs:
+            print(f"env kwargs: {args.env_kwargs}")
+        print(f"{'policy':<44s} {'success':>13s}  {'95% Wilson':<12s} {'goal_s':>9s} {'peak_kpa':>9s} {'max_force_n':>12s}"
+              f" {'bend_kpa':>9s} {'peak<bend':>9s}")
         for r in rows:
             print(_row(r))
         if any(p.split(":")[0] == "tuned" for p in policies):

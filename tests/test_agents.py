@@ -249,7 +249,8 @@ def test_eval_rows_side_by_side():
     rows = evaluate(["operator", {"name": "constant", "pressure_kpa": 3.0}], "evertgym/UBend-v0", 2)
     assert [r["policy"] for r in rows] == ["operator", "constant"]
     for r in rows:
-        assert set(r) >= {"policy", "episodes", "success_rate", "ci_low", "ci_high", "mean_peak_pressure_kpa", "mean_max_contact_force_n"}
+        assert set(r) >= {"policy", "episodes", "success_rate", "ci_low", "ci_high", "mean_peak_pressure_kpa", "mean_max_contact_force_n",
+                          "mean_peak_pressure_bend_kpa", "bend_reached_episodes", "peak_before_bend_episodes"}
         assert 0.0 <= r["ci_low"] <= r["success_rate"] <= r["ci_high"] <= 1.0
 
 
@@ -420,3 +421,29 @@ def test_baseline_table_script_prints_every_policy_on_the_same_held_out_episodes
     assert "tuned: operator tuned on evertgym/UBend-v0 training scenes" in text.stdout
     bad = subprocess.run(cmd[:-1] + ["cycle:duty=3"], capture_output=True, text=True, timeout=300)
     assert bad.returncode != 0 and "duty = 3.0 is out of range" in bad.stderr and "Traceback" not in bad.stderr
+
+
+def test_eval_under_a_randomised_regulator_lag_draws_it_per_episode():
+    """``env_kwargs`` reach every episode's env: the lag is drawn in [0.1, 0.6] s per episode,
+    and the rows carry the bend columns (a held 3 kPa peaks at 3 kPa in the bend)."""
+    from evertgym.agents.evaluate import episode_trial
+    from evertgym.scoring.spec import TrialSpec
+
+    kw = {"regulator_tau_s": [0.1, 0.6]}
+    taus = []
+    for seed in (1_000_000_000, 1_000_000_001):
+        spec = TrialSpec(design={}, design_name="u", scene={"family": "evertgym/UBend-v0", "params": kw, "seed": seed},
+                         policy={"name": "constant", "pressure_kpa": 3.0}, seed=seed, index=0, group="c")
+        info = episode_trial(spec)
+        taus.append(info["regulator_tau_s"])
+    assert all(0.1 <= t <= 0.6 for t in taus) and taus[0] != taus[1]
+    (row,) = evaluate([{"name": "constant", "pressure_kpa": 3.0}], "evertgym/UBend-v0", 1, env_kwargs=kw)
+    assert row["bend_reached_episodes"] == 1 and row["mean_peak_pressure_bend_kpa"] == pytest.approx(3.0, abs=0.02)
+
+
+def test_baseline_table_script_rejects_bad_env_kwargs_in_one_line():
+    root = Path(__file__).resolve().parents[1]
+    cmd = [sys.executable, str(root / "scripts" / "baseline_table.py"), "--envs", "evertgym/UBend-v0", "--episodes", "1",
+           "--env-kwargs", '{"regulator_tau_s": [0.1, 99]}']
+    bad = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert bad.returncode == 2 and "regulator_tau_s = 99 is out of range" in bad.stderr and "Traceback" not in bad.stderr

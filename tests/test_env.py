@@ -123,6 +123,19 @@ def test_success_terminates_with_info():
     assert term and info["success"]
     assert info["peak_pressure_kpa"] == pytest.approx(3.0, abs=0.01)
     assert set(info) >= {"success", "peak_pressure_kpa", "max_contact_force_n", "stall_count", "insertion_length_mm"}
+    # the tip went through the bend at the held 3 kPa: its bend peak is that pressure, reached
+    # after the start-up (the regulator's approach to 3 kPa still creeps up in the bend)
+    assert info["bend_entry_time_s"] is not None and 0.0 < info["bend_entry_time_s"] < info["time_s"]
+    assert info["peak_pressure_bend_kpa"] == pytest.approx(3.0, abs=0.01)
+    assert 0.0 < info["peak_pressure_time_s"] <= info["time_s"]
+
+
+def test_bend_keys_at_reset_and_before_the_bend():
+    env = gym.make("evertgym/UBend-v0")
+    _, info = env.reset(seed=0)
+    assert info["bend_entry_time_s"] is None and info["peak_pressure_bend_kpa"] == 0.0
+    _, _, _, _, info = env.step(np.array([1.0], dtype=np.float32))
+    assert info["bend_entry_time_s"] is None and info["peak_pressure_bend_kpa"] == 0.0  # 300 mm of pipe first
 
 
 def test_time_limit_truncates():

@@ -316,3 +316,20 @@ def test_gallery_script_writes_the_png(tmp_path, monkeypatch):
     runpy.run_path(str(Path(__file__).resolve().parent.parent / "scripts" / "scene_gallery.py"), run_name="__main__")
     img = imread(out)
     assert img.shape[0] > 500 and img.shape[1] > 1000
+
+
+def test_bend_regions_cover_the_ubend_arc_and_nothing_of_a_straight():
+    """The U-bend's bend region is its arc (samples within one spacing), entered ``approach_m``
+    early; a straight pipe has none; a two-bend S has two."""
+    import math
+
+    scene = make_scene({"family": "ubend", "params": {"radius_mm": 30.0, "pipe_length_mm": 300.0}})
+    half_w = 0.5 * scene.lumen_at(0.0)
+    arc_len = math.pi * (0.030 + half_w)
+    ds = float(np.max(np.diff(scene.arclength)))
+    (a, b), = scene.bend_regions()
+    assert a == pytest.approx(0.300, abs=2 * ds) and b == pytest.approx(0.300 + arc_len, abs=2 * ds)
+    (a2, b2), = scene.bend_regions(approach_m=0.02)
+    assert a2 == pytest.approx(a - 0.02) and b2 == b
+    assert make_scene({"family": "straight"}).bend_regions() == []
+    assert len(make_scene({"family": "sbend"}).bend_regions()) == 2

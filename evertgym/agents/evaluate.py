@@ -45,6 +45,16 @@ def episode_trial(spec: TrialSpec) -> dict:
     return run_episode(env, policy, spec.seed, options={"scene_seed": spec.seed})
 
 
+def _bend_columns(infos: list[dict]) -> dict:
+    """Peak pressure at the bend (mean over the episodes whose tip reached a bend; NaN if none
+    did) and how many episodes reached their overall peak before the tip reached a bend (a
+    start-up or approach peak, not one the bend asked for)."""
+    at_bend = [i["peak_pressure_bend_kpa"] for i in infos if i.get("bend_entry_time_s") is not None]
+    before = sum(1 for i in infos if i.get("bend_entry_time_s") is None or i["peak_pressure_time_s"] < i["bend_entry_time_s"])
+    return {"mean_peak_pressure_bend_kpa": float(np.mean(at_bend)) if at_bend else math.nan,
+            "bend_reached_episodes": len(at_bend), "peak_before_bend_episodes": before}
+
+
 def _label(desc: str | dict) -> str:
     return desc if isinstance(desc, str) else str(desc.get("name", desc))
 
@@ -100,6 +110,7 @@ def evaluate(policies: list[str | dict], env_id: str, episodes: int, env_kwargs:
                 "mean_time_to_goal_s": float(np.mean([i["time_s"] for i in wins])) if wins else math.nan,
                 "mean_peak_pressure_kpa": float(np.mean([i["peak_pressure_kpa"] for i in episode_infos])),
                 "mean_max_contact_force_n": float(np.mean([i["max_contact_force_n"] for i in episode_infos])),
+                **_bend_columns(episode_infos),
             }
         )
     return rows

@@ -108,8 +108,12 @@ class EversionEnv(gym.Env):
     ``outcome`` (``running``, ``success``, ``stalled``, ``ruptured``, ``everted``,
     ``time out``), ``time_s``, ``command_kpa``, ``pressure_kpa`` (measured),
     ``peak_pressure_kpa``, ``insertion_length_mm``, ``max_contact_force_n``,
-    ``stall_count``, the five ``reward_*`` terms (0 at reset) and, **privileged** (needs
-    the channel map), ``tip_arclength_mm`` (tip's progress along the centreline).
+    ``stall_count``, the five ``reward_*`` terms (0 at reset) and, **privileged** (need
+    the channel map), ``tip_arclength_mm`` (tip's progress along the centreline),
+    ``peak_pressure_time_s`` (when the episode's peak pressure was reached),
+    ``peak_pressure_bend_kpa`` (peak measured pressure while the tip is in one of the
+    scene's bends, :meth:`~evertgym.scenes.scene.Scene.bend_regions` entered one robot
+    diameter early; 0 until it gets there) and ``bend_entry_time_s`` (``None`` until then).
 
     **Arguments**
 
@@ -295,6 +299,12 @@ class EversionEnv(gym.Env):
         self._sim = EversionSim(design, scene=self._scene, config=config, base=tuple(base))
         self.command_pa = 0.0
         self._s_tip = self._tip_arclength()
+        # where "at the bend" is: the scene's tightest bends, entered one robot diameter early
+        self._bends = self._scene.bend_regions(approach_m=design.diameter_m)
+        self._bend_peak_pa = 0.0
+        self._bend_entry_s: float | None = None
+        self._peak_seen_pa = self._sim.peak_pressure
+        self._peak_time_s = 0.0
         self._hist = [self._sample()] * (self.history + 1)
         self._success = False
         self._ruptured = False
@@ -327,6 +337,7 @@ class EversionEnv(gym.Env):
         ds = s_new - self._s_tip
         self._s_tip = s_new
         p_mean = sim.step_mean_pressure
+        self._track_peaks(s_new)
         reached = s_new >= self.scene.goal_arclength
         terms = {
             "progress": self.w["progress"] * ds / 0.01,
@@ -350,6 +361,17 @@ class EversionEnv(gym.Env):
         if self.render_mode == "human":
             self.render()
         return self._obs(), float(reward), terminated, truncated, info
+
+    def _track_peaks(self, s_tip: float) -> None:
+        """When the episode's peak pressure was reached, and the peak while the tip is in a bend."""
+        sim = self.sim
+        if sim.peak_pressure > self._peak_seen_pa:
+            self._peak_seen_pa = sim.peak_pressure
+            self._peak_time_s = sim.t
+        if any(a <= s_tip <= b for a, b in self._bends):
+            if self._bend_entry_s is None:
+                self._bend_entry_s = sim.t
+            self._bend_peak_pa = max(self._bend_peak_pa, sim.pressure, sim.step_mean_pressure)
 
     # ---- observation ------------------------------------------------------------
     def _tip_arclength(self) -> float:
@@ -410,6 +432,9 @@ class EversionEnv(gym.Env):
             "command_kpa": self.command_pa / 1e3,
             "pressure_kpa": sim.pressure / 1e3,
             "peak_pressure_kpa": sim.peak_pressure / 1e3,
+            "peak_pressure_time_s": self._peak_time_s,
+            "peak_pressure_bend_kpa": self._bend_peak_pa / 1e3,
+            "bend_entry_time_s": self._bend_entry_s,
             "insertion_length_mm": sim.length * 1e3,
             "max_contact_force_n": sim.max_contact_force,
             "stall_count": sim.stall_count,

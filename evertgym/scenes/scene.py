@@ -134,6 +134,23 @@ class Scene:
         return np.stack([np.interp(s, self.arclength, self.centreline[:, 0]),
                          np.interp(s, self.arclength, self.centreline[:, 1])], axis=-1)
 
+    def bend_regions(self, approach_m: float = 0.0, fraction: float = 0.5) -> list[tuple[float, float]]:
+        """Arc-length intervals (m) of the scene's bends: where the centreline's |curvature| is
+        at least ``fraction`` of its largest, each extended back by ``approach_m`` (the tip meets
+        a bend's outer wall before the centreline turns).  Empty for a straight channel.
+
+        This is what "at the bend" means in the env's ``peak_pressure_bend_kpa`` (issue 18):
+        the tightest bends of the scene, whatever the family.
+        """
+        k = np.abs(self.curvature)
+        k_max = float(k.max()) if k.size else 0.0
+        if k_max <= 0.0:
+            return []
+        inside = k >= fraction * k_max
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], inside.astype(np.int8), [0]])))
+        s = self.arclength
+        return [(max(float(s[a]) - approach_m, float(s[0])), float(s[b - 1])) for a, b in zip(edges[::2], edges[1::2])]
+
     def lumen_at(self, s: float | np.ndarray) -> float | np.ndarray:
         """Lumen width (internal diameter, m) at arc length ``s`` (m)."""
         out = np.interp(s, self.arclength, self.lumen_width)
