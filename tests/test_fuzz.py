@@ -68,20 +68,28 @@ def _strategies(nasty: bool) -> tuple[st.SearchStrategy, st.SearchStrategy, st.S
         if nasty else st.fixed_dictionaries({}, optional={"dt_s": st.sampled_from([0.0005, 0.001, 0.002, 0.004, 1e-6]),
                                                           "segment_length_m": st.floats(0.003, 0.02),
                                                           "iterations": st.integers(0, 30)})
+    def ordered(lo: float, hi: float) -> st.SearchStrategy:
+        """A (lo, hi) pair inside [lo, hi]: plain ranges are ordered."""
+        return st.tuples(st.floats(lo, hi), st.floats(lo, hi)).map(lambda t: (min(t), max(t)))
+
+    def pair(lo: float, hi: float, valid_lo: float, valid_hi: float) -> st.SearchStrategy:
+        return anything(st.tuples(number(lo, hi), number(lo, hi))) if nasty else ordered(valid_lo, valid_hi)
+
     env_kwargs = st.fixed_dictionaries({}, optional={
         "scene": st.one_of(st.just({"family": "straight", "params": {"length_mm": 200.0}}), scene_specs),
         "design": st.one_of(st.just({"tube": {"length_mm": 300.0}}), designs),
-        "band_offset_mm": anything(st.tuples(number(-60, 60), number(-60, 60))),
-        "entry_offset_mm": anything(st.tuples(number(-30, 30), number(-30, 30))),
-        "control_hz": st.one_of(st.sampled_from([5, 10, 20, 50, 3, 1000]), number(0, 2000)),
-        "max_episode_s": number(-1, 100), "action_mode": anything(st.sampled_from(["absolute", "increment"])),
-        "max_increment_kpa": number(-1, 10), "history": anything(st.integers(-2, 120)),
+        "band_offset_mm": pair(-60, 60, -5, 5),
+        "entry_offset_mm": pair(-30, 30, -5, 5),
+        "control_hz": st.one_of(st.sampled_from([5, 10, 20, 50, 3, 1000]), number(0, 2000)) if nasty
+        else st.sampled_from([1, 2, 5, 10, 20, 50, 100, 200]),
+        "max_episode_s": field(-1, 100, 1.0, 100.0), "action_mode": anything(st.sampled_from(["absolute", "increment"])),
+        "max_increment_kpa": field(-1, 10, 0.01, 8.0), "history": anything(st.integers(-2, 120)) if nasty else st.integers(0, 100),
         "tip_sensing": anything(st.booleans()), "scene_ahead": anything(st.booleans()),
-        "rupture_kpa": number(-1, 20), "stall_weight": number(-1, 5),
+        "rupture_kpa": field(-1, 20, 0.01, 20.0), "stall_weight": field(-1, 5, 0.0, 5.0),
         "sim_config": st.one_of(st.just({}), sim_config),
-        "regulator_tau_s": anything(st.tuples(number(-0.1, 1.0), number(-0.1, 1.0))),
-        "wall_friction": anything(st.tuples(number(-0.1, 2.0), number(-0.1, 2.0))),
-        "pressure_noise_kpa": number(-0.1, 2.0), "insertion_noise_mm": number(-1, 10),
+        "regulator_tau_s": pair(-0.1, 1.0, 0.0, 1.0),
+        "wall_friction": pair(-0.1, 2.0, 0.0, 2.0),
+        "pressure_noise_kpa": field(-0.1, 2.0, 0.0, 2.0), "insertion_noise_mm": field(-1, 10, 0.0, 10.0),
     })
     return designs, scene_specs, env_kwargs
 

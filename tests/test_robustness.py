@@ -162,6 +162,7 @@ def test_the_simulator_refuses_bodies_it_cannot_build_before_chipmunk_sees_them(
         (dict(control_hz=1000), "control_hz"),
         (dict(control_hz=3), "control_hz"),
         (dict(control_hz=10**400), "control_hz"),  # found by tests/test_fuzz.py
+        (dict(control_hz=0.01), "longer than max_episode_s"),  # a 100 s step: found by the slow env-kwargs fuzz
         (dict(entry_offset_mm=(-1e6, 1e6)), "entry_offset_mm"),
         (dict(tip_sensing="no"), "tip_sensing"),
         (dict(scene_ahead=1), "scene_ahead"),

@@ -195,6 +195,10 @@ class EversionEnv(gym.Env):
         self.entry_offset = (elo / 1e3, ehi / 1e3)
         check_range("control_hz", control_hz, 0.0, 1000.0, lo_open=True, unit="Hz")
         check_range("max_episode_s", max_episode_s, 0.0, 1e5, lo_open=True, unit="s")
+        if 1.0 / control_hz > max_episode_s:  # one step would outlast the episode (and cost as much)
+            raise ValueError(f"control_hz = {control_hz!r} is out of range: one control step (1 / control_hz = "
+                             f"{1.0 / control_hz:g} s) is longer than max_episode_s = {max_episode_s!r} s; "
+                             f"allowed [{1.0 / max_episode_s:g}, 1000] Hz")
         if action_mode not in ("absolute", "increment"):
             raise ValueError(f"action_mode = {action_mode!r}: allowed 'absolute' or 'increment'")
         check_range("max_increment_kpa", max_increment_kpa, 0.0, 8.0, lo_open=True, unit="kPa")
