@@ -126,8 +126,8 @@ class EversionEnv(gym.Env):
     design                900 mm, 40 mm, no band  :class:`TubeDesign` or a design-file dict (mm)
     band_offset_mm        (0, 0)                  all bands shift by U(lo, hi) mm per episode, [-1000, 1000]
     entry_offset_mm       (0, 0)                  base starts U(lo, hi) mm across the channel, [-100, 100]
-    control_hz            10                      control steps per second (0, 1000]; 1 / control_hz a
-                                                  whole number of simulator steps
+    control_hz            10                      control steps per second [1 / max_episode_s, 1000];
+                                                  1 / control_hz a whole number of simulator steps
     max_episode_s         30                      time limit (s), (0, 1e5]
     action_mode           "absolute"              "absolute" or "increment"
     max_increment_kpa     1                       increment mode's largest step (kPa), (0, 8]
