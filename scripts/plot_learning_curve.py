@@ -1,10 +1,13 @@
 #!/usr/bin/env python
-"""Learning curve from a training run's TensorBoard logs.
+"""Learning curves from training runs' TensorBoard logs, several runs (seeds) in one figure.
 
     python scripts/plot_learning_curve.py runs/ubend_ppo docs/ubend_ppo_learning_curve.png
+    python scripts/plot_learning_curve.py runs/colon_ppo_operator_seed0 runs/colon_ppo_operator_seed1 \\
+        docs/colon_ppo_operator_learning_curves.png
 
 Plots the mean episode return and the mean episode length (rollout/ep_rew_mean,
-rollout/ep_len_mean, logged by SB3's Monitor) against environment steps.
+rollout/ep_len_mean, logged by SB3's Monitor) against environment steps, one colour per run
+(a resumed run's pieces share their run's colour).
 """
 
 import sys
@@ -16,27 +19,37 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
+TAGS = (("rollout/ep_rew_mean", "mean episode return"), ("rollout/ep_len_mean", "mean episode length (steps)"))
 
-def main(run_dir: str, out: str) -> None:
-    events = sorted(Path(run_dir, "tb").rglob("events.out.tfevents*"))
-    if not events:
-        raise SystemExit(f"no TensorBoard events under {run_dir}/tb")
+
+def main(run_dirs: list[str], out: str) -> None:
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.6))
-    for tag, ax, label in (("rollout/ep_rew_mean", axes[0], "mean episode return"), ("rollout/ep_len_mean", axes[1], "mean episode length (steps)")):
-        for ev in events:
-            acc = EventAccumulator(str(ev))
-            acc.Reload()
-            if tag in acc.Tags().get("scalars", []):
-                pts = acc.Scalars(tag)
-                ax.plot([p.step for p in pts], [p.value for p in pts], "-")
-        ax.set_xlabel("environment steps")
-        ax.set_ylabel(label)
-        ax.grid(alpha=0.3)
-    fig.suptitle(f"learning curve: {Path(run_dir).name}")
+    for k, run_dir in enumerate(run_dirs):
+        events = sorted(Path(run_dir, "tb").rglob("events.out.tfevents*"))
+        if not events:
+            raise SystemExit(f"no TensorBoard events under {run_dir}/tb")
+        for (tag, label), ax in zip(TAGS, axes):
+            first = True
+            for ev in events:
+                acc = EventAccumulator(str(ev))
+                acc.Reload()
+                if tag in acc.Tags().get("scalars", []):
+                    pts = acc.Scalars(tag)
+                    ax.plot([p.step for p in pts], [p.value for p in pts], "-", color=f"C{k}",
+                            label=Path(run_dir).name if first and len(run_dirs) > 1 else None)
+                    first = False
+            ax.set_xlabel("environment steps")
+            ax.set_ylabel(label)
+            ax.grid(alpha=0.3)
+    if len(run_dirs) > 1:
+        axes[0].legend(fontsize=8)
+    fig.suptitle("learning curve" + ("s" if len(run_dirs) > 1 else "") + ": " + ", ".join(Path(r).name for r in run_dirs))
     fig.tight_layout()
     Path(out).parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=110)
 
 
 if __name__ == "__main__":
-    main(*sys.argv[1:3])
+    if len(sys.argv) < 3:
+        raise SystemExit("usage: plot_learning_curve.py RUN_DIR [RUN_DIR ...] OUT.png")
+    main(sys.argv[1:-1], sys.argv[-1])

@@ -234,6 +234,10 @@ def test_config_validation(tmp_path):
     with pytest.raises(ValueError, match="algo = 'dqn'"):
         load_config(p)
     assert load_config("agents/colon_ppo.toml")["algo"] == "ppo"
+    p.write_text('env_id = "evertgym/UBend-v0"\nalgo = "ppo"\nn_timesteps = 10\ndeterministic = "no"\n')
+    with pytest.raises(ValueError, match="deterministic = 'no': allowed true or false"):
+        load_config(p)
+    assert load_config("agents/colon_ppo_operator.toml")["deterministic"] is False
 
 
 def test_seed_override_names_its_own_run():
@@ -320,6 +324,8 @@ def test_training_killed_after_a_checkpoint_resumes_and_counts_on(tmp_path):
     # the counter continued from the checkpoint: it never restarted below it
     assert model.num_timesteps >= max(saved)
     assert list((out / "tiny_ppo" / "tb").rglob("events.out.tfevents*"))  # TensorBoard logs
+    meta = json.loads((out / "tiny_ppo" / "final_env.json").read_text())
+    assert meta["env_id"] == "evertgym/UBend-v0" and meta["deterministic"] is True  # the config's default
     # the resumed run played fresh episodes: none of the scenes drawn before the kill again
     drawn_before = before.read_text().split()
     drawn_after = after.read_text().split()

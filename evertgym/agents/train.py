@@ -10,6 +10,7 @@ A config is a TOML file in ``agents/`` in the spirit of rl-zoo3's hyperparameter
     normalize = true             # VecNormalize (observations and rewards)
     checkpoint_freq = 10000      # env steps between checkpoints
     eval_episodes = 20           # on held-out scene seeds after training
+    deterministic = true         # act by the policy's mean (false: sample it; recorded in final_env.json)
     [env_kwargs]                 # overrides of the preset
     [hyperparams]                # passed to the SB3 algorithm
     learning_rate = 3e-4
@@ -78,6 +79,8 @@ def load_config(path: str | Path, seed: int | None = None) -> dict:
             raise ValueError(f"{path}: {key} is required ({kind.__name__})")
     if not isinstance(cfg.get("zoo", True), bool):
         raise ValueError(f"{path}: zoo = {cfg['zoo']!r}: allowed true or false")
+    if not isinstance(cfg.get("deterministic", True), bool):
+        raise ValueError(f"{path}: deterministic = {cfg['deterministic']!r}: allowed true or false")
     if cfg["algo"] not in ALGOS:
         raise ValueError(f"{path}: algo = {cfg['algo']!r}: allowed {ALGOS}")
     for key, lo, hi in (("n_envs", 1, 64), ("n_timesteps", 1, 10**9), ("checkpoint_freq", 1, 10**9), ("eval_episodes", 0, 10**6)):
@@ -211,7 +214,9 @@ def train(config_path: str | Path, out_dir: str | Path = "runs", resume: bool = 
         model.learn(total_timesteps=remaining, callback=CallbackList(callbacks), reset_num_timesteps=False, tb_log_name=cfg["name"])
     model.save(str(run_dir / "final"))
     # the observation options the policy was trained with travel with it
-    (run_dir / "final_env.json").write_text(json.dumps({"env_id": cfg["env_id"], "env_kwargs": cfg.get("env_kwargs", {})}, indent=2))
+    # (and whether it acts by its mean or by sampling, the config's ``deterministic``)
+    meta = {"env_id": cfg["env_id"], "env_kwargs": cfg.get("env_kwargs", {}), "deterministic": cfg.get("deterministic", True)}
+    (run_dir / "final_env.json").write_text(json.dumps(meta, indent=2))
     if isinstance(venv, VecNormalize):
         venv.save(str(run_dir / "final_vecnormalize.pkl"))
     venv.close()
