@@ -453,3 +453,22 @@ def test_baseline_table_script_rejects_bad_env_kwargs_in_one_line():
            "--env-kwargs", '{"regulator_tau_s": [0.1, 99]}']
     bad = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     assert bad.returncode == 2 and "regulator_tau_s = 99 is out of range" in bad.stderr and "Traceback" not in bad.stderr
+
+
+def test_a_policy_carries_its_observation_flags_not_its_training_physics():
+    """The shipped operator-only policy was trained under a randomised regulator lag: in an
+    evaluation it keeps its observation (no tip sensing) but meets the evaluation's physics,
+    the same as every baseline beside it."""
+    import json as _json
+
+    from evertgym.agents.evaluate import _policy_and_env
+    from evertgym.agents.policies import make_policy
+
+    policy = make_policy("colon_ppo_operator")
+    assert policy.env_kwargs["regulator_tau_s"] == [0.1, 0.6] and policy.deterministic is False
+    assert policy.observation_kwargs == {"tip_sensing": False}
+    _, env = _policy_and_env(_json.dumps({"name": "colon_ppo_operator"}), "evertgym/Colon-v0", "{}")
+    assert env.unwrapped.regulator_tau_range is None and env.unwrapped.tip_sensing is False
+    _, env = _policy_and_env(_json.dumps({"name": "colon_ppo_operator"}), "evertgym/Colon-v0",
+                             _json.dumps({"regulator_tau_s": [0.1, 0.6]}))
+    assert env.unwrapped.regulator_tau_range == (0.1, 0.6)

@@ -29,8 +29,9 @@ def _policy_and_env(policy_json: str, env_id: str, kwargs_json: str) -> tuple[Po
     import json
 
     policy = make_policy(json.loads(policy_json))  # trust travels in the description
-    # observation flags a trained model needs; they do not change the physics
-    env = gym.make(env_id, **{**json.loads(kwargs_json), **getattr(policy, "env_kwargs", {})})
+    # observation flags a trained model needs; they do not change the physics (its other
+    # training kwargs, e.g. a randomised lag, do not apply: the evaluation's are the same for all)
+    env = gym.make(env_id, **{**json.loads(kwargs_json), **getattr(policy, "observation_kwargs", {})})
     if getattr(policy, "name", "") == "agent":
         import torch
 

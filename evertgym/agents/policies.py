@@ -30,6 +30,7 @@ class SB3Policy(Policy):
         from stable_baselines3 import PPO, SAC
 
         from evertgym.agents.trust import check_trusted
+        from evertgym.env.eversion_env import OBSERVATION_KWARGS
 
         path = Path(path)
         if not path.is_file():
@@ -47,9 +48,11 @@ class SB3Policy(Policy):
         else:
             raise ValueError(f"policy path = {str(path)!r} is not a PPO or SAC model: {last_error}")
         meta = path.with_name(path.stem + "_env.json")
-        #: env kwargs the model was trained with (observation flags); evaluation applies them
+        #: env kwargs the model was trained with; evaluation applies only the observation
+        #: flags among them (``observation_kwargs``), so every policy meets the same physics
         shipped = json.loads(meta.read_text()) if meta.exists() else {}
         self.env_kwargs = shipped.get("env_kwargs", {})
+        self.observation_kwargs = {k: v for k, v in self.env_kwargs.items() if k in OBSERVATION_KWARGS}
         self.deterministic = bool(shipped.get("deterministic", True)) if deterministic is None else bool(deterministic)
         if not self.deterministic and not isinstance(self.model, PPO):
             raise ValueError(f"policy path = {str(path)!r}: stochastic actions are supported for PPO models only")

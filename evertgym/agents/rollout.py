@@ -23,7 +23,7 @@ def rollout_gif(policy_desc: str | dict, env_id: str, out: str | Path, seed: int
     if out.suffix.lower() != ".gif":
         raise ValueError(f"--out = {str(out)!r}: expected a .gif file")
     policy = make_policy(for_env(policy_desc, env_id), trust=trust)
-    env = gym.make(env_id, render_mode="rgb_array", **getattr(policy, "env_kwargs", {}))
+    env = gym.make(env_id, render_mode="rgb_array", **getattr(policy, "observation_kwargs", {}))
     obs, info = env.reset(seed=seed)
     policy.reset(env)
     frames = [env.render()]

@@ -27,6 +27,11 @@ _REWARD_TERMS = ("progress", "pressure", "contact", "stall", "success")
 #: seeds from here up (``reset(options={"scene_seed": ...})``).
 HELD_OUT_SEED_BASE = 1_000_000_000
 
+#: Env arguments that shape the observation and not the physics: a trained policy carries
+#: these to every env it is evaluated in (everything else, e.g. a randomised regulator lag,
+#: is the evaluation's choice, the same for every policy compared).
+OBSERVATION_KWARGS = ("history", "tip_sensing", "scene_ahead")
+
 
 class EversionEnv(gym.Env):
     """Grow an eversion robot through a scene by scheduling its pressure.
