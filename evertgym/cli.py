@@ -540,13 +540,15 @@ def cmd_rollout(args: argparse.Namespace) -> int:
     from evertgym.agents.rollout import rollout_gif
     from evertgym.cli_guard import check_rollout_flags
 
-    check_rollout_flags(args)
-    info = rollout_gif(args.policy, args.env, args.out, seed=args.seed, trust=args.trust_model, progress=not args.json)
+    env_kwargs = check_rollout_flags(args)
+    info = rollout_gif(args.policy, args.env, args.out, seed=args.seed, trust=args.trust_model, progress=not args.json,
+                       env_kwargs=env_kwargs)
     if args.json:
         print(dumps(info))
         return 0
     cmd = np.asarray(info["command_kpa"])
-    print(f"{'success' if info['success'] else 'no success'} after {info['time_s']:.1f} s ({len(cmd)} control steps); "
+    print(f"held-out episode {args.seed} (seed {info['episode_seed']}): "
+          f"{'success' if info['success'] else 'no success'} after {info['time_s']:.1f} s ({len(cmd)} control steps); "
           f"peak pressure {info['peak_pressure_kpa']:.2f} kPa")
     if len(cmd):
         print(f"pressure command: mean {cmd.mean():.2f} kPa, range {cmd.min():.2f}-{cmd.max():.2f} kPa "
@@ -688,7 +690,10 @@ def build_parser() -> argparse.ArgumentParser:
                     "a shipped policy (colon_ppo, ubend_ppo) or a .zip")
     ro.add_argument("--env", required=True, help="a registered env id, e.g. evertgym/Colon-v0")
     ro.add_argument("--out", required=True, help="FILE.gif")
-    ro.add_argument("--seed", type=int, default=0, help="episode seed")
+    ro.add_argument("--seed", type=int, default=0,
+                    help="held-out episode k (episode and scene seed 1e9 + k: eval's k-th episode, never a training one)")
+    ro.add_argument("--env-kwargs", default=None, metavar="JSON",
+                    help='env arguments, a JSON object, e.g. \'{"regulator_tau_s": [0.1, 0.6]}\' (as for eval)')
     ro.add_argument("--json", action="store_true", help="print the outcome and every step's command as JSON")
     ro.add_argument("--trust-model", action="store_true", help="load a model file that is not a shipped policy: model files are code "
                          "(pickles) and run when loaded")

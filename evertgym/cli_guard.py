@@ -232,13 +232,16 @@ def check_env_kwargs(flag: str, text: str | None, env_id: str) -> dict:
     return kwargs
 
 
-def check_rollout_flags(args: argparse.Namespace) -> None:
-    """``evertgym rollout``: seed, env id, policy and a writable ``--out`` before the episode."""
-    if not 0 <= args.seed < 2**63:
-        raise ValueError(f"--seed = {args.seed} is out of range: allowed integers in [0, 2^63)")
+def check_rollout_flags(args: argparse.Namespace) -> dict:
+    """``evertgym rollout``: seed, env id, env kwargs, policy and a writable ``--out`` before
+    the episode.  Returns the env kwargs."""
+    if not 0 <= args.seed < 2**62:
+        raise ValueError(f"--seed = {args.seed} is out of range: allowed integers in [0, 2^62)")
     check_env_id("--env", args.env)
+    env_kwargs = check_env_kwargs("--env-kwargs", getattr(args, "env_kwargs", None), args.env)
     check_policy("policy", args.policy, args.trust_model)
     check_output_file("--out", args.out, (".gif",))
+    return env_kwargs
 
 
 def check_score_flags(args: argparse.Namespace, designs: dict[str, dict], params: Any, episode: dict, policy: dict) -> dict:

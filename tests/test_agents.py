@@ -413,6 +413,23 @@ def test_rollout_writes_a_gif_and_the_command_trace(tmp_path):
         rollout_gif("operator", "evertgym/UBend-v0", tmp_path / "r.mp4")
 
 
+def test_rollout_plays_the_held_out_episode_eval_plays(tmp_path):
+    """``rollout --seed k`` is held-out episode k of ``eval`` (scene seed 1e9 + k), never a
+    training scene; ``env_kwargs`` reach it."""
+    from evertgym.agents.evaluate import episode_trial
+    from evertgym.agents.rollout import rollout_gif
+    from evertgym.scoring.spec import TrialSpec
+
+    kw = {"regulator_tau_s": [0.1, 0.6]}
+    out = rollout_gif("operator", "evertgym/UBend-v0", tmp_path / "r.gif", seed=1, every=50, env_kwargs=kw)
+    assert out["episode_seed"] == 1_000_000_001
+    spec = TrialSpec(design={}, design_name="u", scene={"family": "evertgym/UBend-v0", "params": kw, "seed": 1_000_000_001},
+                     policy={"name": "operator"}, seed=1_000_000_001, index=0, group="o")
+    info = episode_trial(spec)
+    assert out["success"] == info["success"] and out["time_s"] == round(info["time_s"], 2)
+    assert out["peak_pressure_kpa"] == round(info["peak_pressure_kpa"], 3)
+
+
 def test_baseline_table_script_prints_every_policy_on_the_same_held_out_episodes():
     root = Path(__file__).resolve().parents[1]
     cmd = [sys.executable, str(root / "scripts" / "baseline_table.py"), "--envs", "evertgym/UBend-v0", "--episodes", "2",

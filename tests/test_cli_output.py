@@ -24,7 +24,7 @@ def test_rollout_prints_a_summary_and_json_keeps_every_command(tmp_path, capsys,
     import evertgym.agents.rollout as rollout
 
     info = {"frames": 3, "success": True, "time_s": 0.3, "peak_pressure_kpa": 4.0, "command_kpa": [2.0, 3.0, 4.0],
-            "out": str(tmp_path / "r.gif")}
+            "out": str(tmp_path / "r.gif"), "episode_seed": 1_000_000_000}
     monkeypatch.setattr(rollout, "rollout_gif", lambda *a, **k: dict(info))  # the episode itself: tests/test_agents.py
     argv = ["rollout", "operator", "--env", "evertgym/UBend-v0", "--out", str(tmp_path / "r.gif")]
     assert main(argv) == 0

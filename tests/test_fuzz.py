@@ -174,7 +174,8 @@ def monkeypatch_module():
     mp.setattr(runner, "run_trials", lambda *a, **k: [])
     mp.setattr(evaluate, "evaluate", lambda *a, **k: [])
     mp.setattr(rollout, "rollout_gif", lambda *a, **k: {"frames": 1, "success": False, "time_s": 0.0, "peak_pressure_kpa": 0.0,
-                                                         "command_kpa": [], "out": "/tmp/evertgym_fuzz.gif"})
+                                                         "command_kpa": [], "out": "/tmp/evertgym_fuzz.gif",
+                                                         "episode_seed": 1_000_000_000})
     yield
     mp.undo()
 

@@ -8,12 +8,17 @@ import gymnasium as gym
 import numpy as np
 
 from evertgym.agents.policies import for_env, make_policy
+from evertgym.env.eversion_env import HELD_OUT_SEED_BASE
 
 
 def rollout_gif(policy_desc: str | dict, env_id: str, out: str | Path, seed: int = 0, every: int = 2, trust: bool = False,
-                progress: bool = False) -> dict:
+                progress: bool = False, env_kwargs: dict | None = None) -> dict:
     """Run one episode with ``render_mode="rgb_array"``; every ``every``-th frame goes to ``out``.
-    Returns the outcome and the pressure command of every control step (``command_kpa``).
+    The episode is held-out episode ``seed``: episode and scene seed ``HELD_OUT_SEED_BASE +
+    seed``, the same episode as :func:`evertgym.agents.evaluate.evaluate`'s ``seed``-th, which
+    training never draws.  ``env_kwargs`` go to the env (a trained policy adds only its
+    observation flags).  Returns the outcome, ``episode_seed`` and the pressure command of
+    every control step (``command_kpa``).
     ``trust=True`` loads a saved model that is not a shipped policy (model files are code).
     ``progress`` shows a bar over the episode's control steps (on stderr)."""
     from PIL import Image
@@ -23,8 +28,9 @@ def rollout_gif(policy_desc: str | dict, env_id: str, out: str | Path, seed: int
     if out.suffix.lower() != ".gif":
         raise ValueError(f"--out = {str(out)!r}: expected a .gif file")
     policy = make_policy(for_env(policy_desc, env_id), trust=trust)
-    env = gym.make(env_id, render_mode="rgb_array", **getattr(policy, "observation_kwargs", {}))
-    obs, info = env.reset(seed=seed)
+    env = gym.make(env_id, render_mode="rgb_array", **{**(env_kwargs or {}), **getattr(policy, "observation_kwargs", {})})
+    episode_seed = HELD_OUT_SEED_BASE + seed
+    obs, info = env.reset(seed=episode_seed, options={"scene_seed": episode_seed})
     policy.reset(env)
     frames = [env.render()]
     commands: list[float] = []
@@ -46,4 +52,5 @@ def rollout_gif(policy_desc: str | dict, env_id: str, out: str | Path, seed: int
     images[0].save(out, save_all=True, append_images=images[1:], duration=int(1000 / fps), loop=0)
     env.close()
     return {"frames": len(images), "success": bool(info["success"]), "time_s": round(float(info["time_s"]), 2),
-            "peak_pressure_kpa": round(float(info["peak_pressure_kpa"]), 3), "command_kpa": commands, "out": str(out)}
+            "peak_pressure_kpa": round(float(info["peak_pressure_kpa"]), 3), "command_kpa": commands, "out": str(out),
+            "episode_seed": episode_seed}
