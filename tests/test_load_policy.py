@@ -32,11 +32,11 @@ def test_shipped_policy_loads_with_its_env_and_accepts_that_env_for_fine_tuning(
 def test_a_path_a_run_folder_and_a_name_resolve_alike():
     zip_path = shipped_dir() / "ubend_ppo" / "final.zip"
     assert resolve_policy_path("ubend_ppo") == resolve_policy_path(zip_path.parent) == zip_path == resolve_policy_path(zip_path)
-    assert shipped_policies() == ["colon_ppo", "ubend_ppo"]
+    assert shipped_policies() == ["colon_ppo", "colon_ppo_operator", "ubend_ppo"]
 
 
 def test_unknown_policy_names_the_shipped_ones():
-    with pytest.raises(ValueError, match=r"shipped: \['colon_ppo', 'ubend_ppo'\]"):
+    with pytest.raises(ValueError, match=r"shipped: \['colon_ppo', 'colon_ppo_operator', 'ubend_ppo'\]"):
         load_policy("no_such_policy")
 
 
