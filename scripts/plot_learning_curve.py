@@ -28,19 +28,21 @@ def main(run_dirs: list[str], out: str) -> None:
         events = sorted(Path(run_dir, "tb").rglob("events.out.tfevents*"))
         if not events:
             raise SystemExit(f"no TensorBoard events under {run_dir}/tb")
-        for (tag, label), ax in zip(TAGS, axes):
-            first = True
-            for ev in events:
-                acc = EventAccumulator(str(ev))
-                acc.Reload()
-                if tag in acc.Tags().get("scalars", []):
+        label = Path(run_dir).name if len(run_dirs) > 1 else None  # once per run, on its first piece
+        for ev in events:  # a resumed run has one file per piece: each is read once
+            acc = EventAccumulator(str(ev))
+            acc.Reload()
+            scalars = acc.Tags().get("scalars", [])
+            for (tag, _), ax in zip(TAGS, axes):
+                if tag in scalars:
                     pts = acc.Scalars(tag)
-                    ax.plot([p.step for p in pts], [p.value for p in pts], "-", color=f"C{k}",
-                            label=Path(run_dir).name if first and len(run_dirs) > 1 else None)
-                    first = False
-            ax.set_xlabel("environment steps")
-            ax.set_ylabel(label)
-            ax.grid(alpha=0.3)
+                    ax.plot([p.step for p in pts], [p.value for p in pts], "-", color=f"C{k}", label=label if ax is axes[0] else None)
+            if any(tag in scalars for tag, _ in TAGS):
+                label = None
+    for (_, ylabel), ax in zip(TAGS, axes):
+        ax.set_xlabel("environment steps")
+        ax.set_ylabel(ylabel)
+        ax.grid(alpha=0.3)
     if len(run_dirs) > 1:
         axes[0].legend(fontsize=8)
     fig.suptitle("learning curve" + ("s" if len(run_dirs) > 1 else "") + ": " + ", ".join(Path(r).name for r in run_dirs))

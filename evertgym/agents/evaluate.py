@@ -50,8 +50,8 @@ def _bend_columns(infos: list[dict]) -> dict:
     """Peak pressure at the bend (mean over the episodes whose tip reached a bend; NaN if none
     did) and how many episodes reached their overall peak before the tip reached a bend (a
     start-up or approach peak, not one the bend asked for)."""
-    at_bend = [i["peak_pressure_bend_kpa"] for i in infos if i.get("bend_entry_time_s") is not None]
-    before = sum(1 for i in infos if i.get("bend_entry_time_s") is None or i["peak_pressure_time_s"] < i["bend_entry_time_s"])
+    at_bend = [i["peak_pressure_bend_kpa"] for i in infos if i["bend_entry_time_s"] is not None]
+    before = sum(1 for i in infos if i["bend_entry_time_s"] is None or i["peak_pressure_time_s"] < i["bend_entry_time_s"])
     return {"mean_peak_pressure_bend_kpa": float(np.mean(at_bend)) if at_bend else math.nan,
             "bend_reached_episodes": len(at_bend), "peak_before_bend_episodes": before}
 
