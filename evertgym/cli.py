@@ -516,13 +516,16 @@ def cmd_train(args: argparse.Namespace) -> int:
 def cmd_eval(args: argparse.Namespace) -> int:
     from evertgym.agents.evaluate import evaluate
     from evertgym.cli_guard import check_eval_flags
+    from evertgym.env.eversion_env import HELD_OUT_SEED_BASE, VALIDATION_SEED_BASE
 
     env_kwargs = check_eval_flags(args)
+    seed_base = VALIDATION_SEED_BASE if args.validation else HELD_OUT_SEED_BASE
     rows = evaluate(args.policies, args.env, args.episodes, env_kwargs=env_kwargs, workers=args.workers,
-                    trust=args.trust_model, progress=not args.json)
+                    trust=args.trust_model, progress=not args.json, seed_base=seed_base)
     if args.json:
-        print(dumps({"rows": rows}))
+        print(dumps({"rows": rows, "seed_base": seed_base}))
         return 0
+    print(f"{'validation' if args.validation else 'held-out'} episodes: episode and scene seeds {seed_base}-{seed_base + args.episodes - 1}")
     print(f"{'policy':30s} {'episodes':>8s} {'success':>8s} {'95% CI':>15s} {'time_to_goal_s':>14s} {'peak_kpa':>9s} "
           f"{'max_force_n':>11s} {'bend_peak_kpa':>13s} {'peak<bend':>9s}")
     for r in rows:
@@ -678,6 +681,9 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--env-kwargs", default=None, metavar="JSON",
                     help='env arguments for every policy, a JSON object, e.g. \'{"regulator_tau_s": [0.1, 0.6]}\' '
                          "(a randomised regulator lag); a trained model's own observation flags still apply")
+    ev.add_argument("--validation", action="store_true",
+                    help="play validation episodes (seeds 2e9 + i) instead of the held-out ones (1e9 + i): neither is ever "
+                         "a training scene; choose settings (an action mode, a checkpoint) on these, report on held-out")
     ev.add_argument("--json", action="store_true", help=_JSON_HELP)
     ev.add_argument("--workers", type=int, default=1, help="processes to spread the episodes over (default 1)")
     ev.add_argument("--force-workers", action="store_true", help="allow more --workers than CPUs")

@@ -109,6 +109,24 @@ def test_eval_cli_takes_baselines_with_parameters(capsys):
     assert "duty = 2.0 is out of range" in err and "Traceback" not in err
 
 
+def test_eval_validation_episodes_are_neither_held_out_nor_training(capsys):
+    from evertgym.cli import main
+    from evertgym.env.eversion_env import HELD_OUT_SEED_BASE, VALIDATION_SEED_BASE
+    from evertgym.limits import MAX_EPISODES
+
+    assert VALIDATION_SEED_BASE >= HELD_OUT_SEED_BASE + MAX_EPISODES and VALIDATION_SEED_BASE + MAX_EPISODES < 2**31
+    argv = ["eval", "constant", "--env", "evertgym/UBend-v0", "--episodes", "1", "--json"]
+    assert main(argv) == 0
+    held_out = json.loads(capsys.readouterr().out)
+    assert main([*argv, "--validation"]) == 0
+    validation = json.loads(capsys.readouterr().out)
+    assert (held_out["seed_base"], validation["seed_base"]) == (HELD_OUT_SEED_BASE, VALIDATION_SEED_BASE)
+    # another scene: the constant 3 kPa run ends elsewhere
+    assert held_out["rows"][0] != validation["rows"][0]
+    assert main(argv[:-1] + ["--validation"]) == 0
+    assert "validation episodes: episode and scene seeds 2000000000-2000000000" in capsys.readouterr().out
+
+
 def _stub_env(control_dt: float = 0.1):
     from types import SimpleNamespace
 

@@ -26,6 +26,11 @@ _REWARD_TERMS = ("progress", "pressure", "contact", "stall", "success")
 #: Scene seeds drawn for episodes stay below this; evaluation on held-out scenes uses
 #: seeds from here up (``reset(options={"scene_seed": ...})``).
 HELD_OUT_SEED_BASE = 1_000_000_000
+#: Validation episodes (``evertgym eval --validation``) use seeds from here up: neither a
+#: training scene (below :data:`HELD_OUT_SEED_BASE`) nor a held-out one (below
+#: ``HELD_OUT_SEED_BASE + MAX_EPISODES``), for choosing a setting (an action mode, a
+#: checkpoint) without looking at the held-out episodes.
+VALIDATION_SEED_BASE = 2_000_000_000
 
 #: Env arguments that shape the observation and not the physics: a trained policy carries
 #: these to every env it is evaluated in (everything else, e.g. a randomised regulator lag,
