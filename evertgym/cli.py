@@ -693,7 +693,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     ro = _sub(sub, "rollout", "render one episode to a GIF")
     ro.add_argument("policy", help="a baseline (constant, operator, cycle, deflate, tuned; parameters as cycle:low_kpa=0,high_kpa=3), "
-                    "a shipped policy (colon_ppo, colon_ppo_operator, ubend_ppo) or a .zip")
+                    "a shipped policy (colon_ppo, colon_ppo_operator, ubend_ppo_operator, ...) or a .zip")
     ro.add_argument("--env", required=True, help="a registered env id, e.g. evertgym/Colon-v0")
     ro.add_argument("--out", required=True, help="FILE.gif")
     ro.add_argument("--seed", type=int, default=0,

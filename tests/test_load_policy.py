@@ -32,11 +32,12 @@ def test_shipped_policy_loads_with_its_env_and_accepts_that_env_for_fine_tuning(
 def test_a_path_a_run_folder_and_a_name_resolve_alike():
     zip_path = shipped_dir() / "ubend_ppo" / "final.zip"
     assert resolve_policy_path("ubend_ppo") == resolve_policy_path(zip_path.parent) == zip_path == resolve_policy_path(zip_path)
-    assert shipped_policies() == ["colon_ppo", "colon_ppo_operator", "ubend_ppo"]
+    assert shipped_policies() == ["colon_ppo", "colon_ppo_operator", "tortuous_ppo_operator", "ubend_ppo",
+                                  "ubend_ppo_operator"]
 
 
 def test_unknown_policy_names_the_shipped_ones():
-    with pytest.raises(ValueError, match=r"shipped: \['colon_ppo', 'colon_ppo_operator', 'ubend_ppo'\]"):
+    with pytest.raises(ValueError, match=r"shipped: \['colon_ppo', 'colon_ppo_operator', 'tortuous_ppo_operator', 'ubend_ppo', 'ubend_ppo_operator'\]"):
         load_policy("no_such_policy")
 
 
@@ -50,3 +51,22 @@ def test_loaded_policy_acts_like_the_cli_path():
     a.reset(env)
     b.reset(env)
     assert np.array_equal(a.act(obs, info), b.act(obs, info))
+
+
+@pytest.mark.parametrize("name", ["colon_ppo", "colon_ppo_operator", "tortuous_ppo_operator", "ubend_ppo", "ubend_ppo_operator"])
+def test_a_shipped_policy_was_trained_with_its_config_and_the_operator_ones_never_see_the_tip(name):
+    """agents/<name>/final_env.json (written by the training) matches agents/<name>.toml, so
+    `evertgym train agents/<name>.toml` reruns what is shipped; the *_operator policies
+    observe only what an operator has (no tip force) and were trained under the randomised lag."""
+    import json
+
+    from evertgym.agents.train import load_config
+
+    cfg = load_config(shipped_dir() / f"{name}.toml")
+    meta = json.loads((shipped_dir() / name / "final_env.json").read_text())
+    assert (meta["env_id"], meta["env_kwargs"]) == (cfg["env_id"], cfg["env_kwargs"])
+    assert meta.get("deterministic", True) == cfg.get("deterministic", True)
+    policy, env_id, env_kwargs = load_policy(name)
+    if name.endswith("_operator"):
+        assert env_kwargs["tip_sensing"] is False and cfg["env_kwargs"]["regulator_tau_s"] == [0.1, 0.6]
+        assert gym.make(env_id, **env_kwargs).observation_space.shape == (15,)
