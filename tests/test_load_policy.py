@@ -37,7 +37,8 @@ def test_a_path_a_run_folder_and_a_name_resolve_alike():
 
 
 def test_unknown_policy_names_the_shipped_ones():
-    with pytest.raises(ValueError, match=r"shipped: \['colon_ppo', 'colon_ppo_operator', 'tortuous_ppo_operator', 'ubend_ppo', 'ubend_ppo_operator'\]"):
+    shipped = r"\['colon_ppo', 'colon_ppo_operator', 'tortuous_ppo_operator', 'ubend_ppo', 'ubend_ppo_operator'\]"
+    with pytest.raises(ValueError, match=rf"shipped: {shipped}"):
         load_policy("no_such_policy")
 
 
@@ -70,3 +71,19 @@ def test_a_shipped_policy_was_trained_with_its_config_and_the_operator_ones_neve
     if name.endswith("_operator"):
         assert env_kwargs["tip_sensing"] is False and cfg["env_kwargs"]["regulator_tau_s"] == [0.1, 0.6]
         assert gym.make(env_id, **env_kwargs).observation_space.shape == (15,)
+
+
+def test_compare_runs_tells_identical_policies_from_different_ones(capsys):
+    import importlib.util
+    from pathlib import Path
+
+    spec = importlib.util.spec_from_file_location("compare_runs", Path(__file__).parents[1] / "scripts" / "compare_runs.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    ubend, tortuous = shipped_dir() / "ubend_ppo_operator", shipped_dir() / "tortuous_ppo_operator"
+    assert mod.main(str(ubend), str(ubend)) == 0
+    assert "largest difference 0 (identical)" in capsys.readouterr().out
+    assert mod.main(str(ubend), str(tortuous)) == 1
+    assert "(different)" in capsys.readouterr().out
+    assert mod.main(str(ubend), str(ubend / "nowhere")) == 2
+    assert "has no final.zip" in capsys.readouterr().err

@@ -1,0 +1,54 @@
+#!/usr/bin/env python
+"""Are two trained policies the same policy?  Compares their weights and normaliser.
+
+    python scripts/compare_runs.py agents/ubend_ppo_operator runs/ubend_ppo_operator_seed0
+
+Each argument is a run folder (or a shipped policy's folder) holding ``final.zip`` and
+``final_vecnormalize.pkl``.  The policy weights (``policy.pth`` inside the SB3 zip) are read
+with ``torch.load(weights_only=True)``, which loads tensors and never runs pickled code; the
+VecNormalize file is a plain pickle and is therefore compared by its bytes (SHA-256), never
+loaded.  The zip files themselves differ between two identical trainings (SB3 stores the
+run's paths and timestamps), so their hashes prove nothing either way.  Exit status 0 when
+the weights and the normaliser are identical, 1 otherwise.
+"""
+
+import hashlib
+import io
+import sys
+import zipfile
+from pathlib import Path
+
+import torch
+
+
+def weights(folder: Path) -> dict[str, torch.Tensor]:
+    """The policy's tensors from ``folder/final.zip`` (tensors only: no code runs)."""
+    with zipfile.ZipFile(folder / "final.zip") as z:
+        return torch.load(io.BytesIO(z.read("policy.pth")), map_location="cpu", weights_only=True)
+
+
+def main(a: str, b: str) -> int:
+    fa, fb = Path(a), Path(b)
+    for f in (fa, fb):
+        if not (f / "final.zip").is_file():
+            print(f"compare_runs: error: run folder = {str(f)!r} has no final.zip", file=sys.stderr)
+            return 2
+    wa, wb = weights(fa), weights(fb)
+    if wa.keys() != wb.keys():
+        print(f"different architectures: {sorted(wa)} vs {sorted(wb)}")
+        return 1
+    diff = max(float((wa[k].double() - wb[k].double()).abs().max()) if wa[k].shape == wb[k].shape else float("inf") for k in wa)
+    n = sum(int(t.numel()) for t in wa.values())
+    digest = [hashlib.sha256((f / "final_vecnormalize.pkl").read_bytes()).hexdigest() if (f / "final_vecnormalize.pkl").is_file()
+              else None for f in (fa, fb)]
+    same_norm = digest[0] == digest[1]
+    print(f"policy weights: {len(wa)} tensors, {n} numbers, largest difference {diff:.3g}"
+          f" ({'identical' if diff == 0 else 'different'})")
+    print(f"VecNormalize statistics: {'identical bytes' if same_norm else 'different'}")
+    return 0 if diff == 0 and same_norm else 1
+
+
+if __name__ == "__main__":
+    if len(sys.argv) != 3:
+        raise SystemExit(__doc__)
+    sys.exit(main(sys.argv[1], sys.argv[2]))
