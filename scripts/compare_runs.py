@@ -2,9 +2,11 @@
 """Are two trained policies the same policy?  Compares their weights and normaliser.
 
     python scripts/compare_runs.py agents/ubend_ppo_operator runs/ubend_ppo_operator_seed0
+    python scripts/compare_runs.py agents/colon_ppo_operator runs/colon_ppo_operator_seed0/checkpoints/model_80000_steps.zip
 
 Each argument is a run folder (or a shipped policy's folder) holding ``final.zip`` and
-``final_vecnormalize.pkl``.  The policy weights (``policy.pth`` inside the SB3 zip) are read
+``final_vecnormalize.pkl``, or a checkpoint ``model_<N>_steps.zip`` whose normaliser
+``model_vecnormalize_<N>_steps.pkl`` lies beside it.  The policy weights (``policy.pth`` inside the SB3 zip) are read
 with ``torch.load(weights_only=True)``, which loads tensors and never runs pickled code; the
 VecNormalize file is a plain pickle and is therefore compared by its bytes (SHA-256), never
 loaded.  The zip files themselves differ between two identical trainings (SB3 stores the
@@ -21,26 +23,33 @@ from pathlib import Path
 import torch
 
 
-def weights(folder: Path) -> dict[str, torch.Tensor]:
-    """The policy's tensors from ``folder/final.zip`` (tensors only: no code runs)."""
-    with zipfile.ZipFile(folder / "final.zip") as z:
+def model_files(arg: str) -> tuple[Path, Path]:
+    """(model zip, VecNormalize file) of a run folder or of a checkpoint zip."""
+    p = Path(arg)
+    if p.suffix == ".zip":
+        return p, p.with_name(p.name.replace("model_", "model_vecnormalize_", 1).replace(".zip", ".pkl"))
+    return p / "final.zip", p / "final_vecnormalize.pkl"
+
+
+def weights(model_zip: Path) -> dict[str, torch.Tensor]:
+    """The policy's tensors from an SB3 zip (tensors only: no code runs)."""
+    with zipfile.ZipFile(model_zip) as z:
         return torch.load(io.BytesIO(z.read("policy.pth")), map_location="cpu", weights_only=True)
 
 
 def main(a: str, b: str) -> int:
-    fa, fb = Path(a), Path(b)
-    for f in (fa, fb):
-        if not (f / "final.zip").is_file():
-            print(f"compare_runs: error: run folder = {str(f)!r} has no final.zip", file=sys.stderr)
+    (za, na), (zb, nb) = model_files(a), model_files(b)
+    for arg, z in ((a, za), (b, zb)):
+        if not z.is_file():
+            print(f"compare_runs: error: run = {arg!r} has no model file {str(z)!r}", file=sys.stderr)
             return 2
-    wa, wb = weights(fa), weights(fb)
+    wa, wb = weights(za), weights(zb)
     if wa.keys() != wb.keys():
         print(f"different architectures: {sorted(wa)} vs {sorted(wb)}")
         return 1
     diff = max(float((wa[k].double() - wb[k].double()).abs().max()) if wa[k].shape == wb[k].shape else float("inf") for k in wa)
     n = sum(int(t.numel()) for t in wa.values())
-    digest = [hashlib.sha256((f / "final_vecnormalize.pkl").read_bytes()).hexdigest() if (f / "final_vecnormalize.pkl").is_file()
-              else None for f in (fa, fb)]
+    digest = [hashlib.sha256(n.read_bytes()).hexdigest() if n.is_file() else None for n in (na, nb)]
     same_norm = digest[0] == digest[1]
     print(f"policy weights: {len(wa)} tensors, {n} numbers, largest difference {diff:.3g}"
           f" ({'identical' if diff == 0 else 'different'})")

@@ -73,7 +73,7 @@ def test_a_shipped_policy_was_trained_with_its_config_and_the_operator_ones_neve
         assert gym.make(env_id, **env_kwargs).observation_space.shape == (15,)
 
 
-def test_compare_runs_tells_identical_policies_from_different_ones(capsys):
+def test_compare_runs_tells_identical_policies_from_different_ones(capsys, tmp_path):
     import importlib.util
     from pathlib import Path
 
@@ -86,4 +86,12 @@ def test_compare_runs_tells_identical_policies_from_different_ones(capsys):
     assert mod.main(str(ubend), str(tortuous)) == 1
     assert "(different)" in capsys.readouterr().out
     assert mod.main(str(ubend), str(ubend / "nowhere")) == 2
-    assert "has no final.zip" in capsys.readouterr().err
+    assert "has no model file" in capsys.readouterr().err
+    # a checkpoint zip, its normaliser beside it under SB3's checkpoint names
+    import shutil
+
+    shutil.copy(ubend / "final.zip", tmp_path / "model_80000_steps.zip")
+    shutil.copy(ubend / "final_vecnormalize.pkl", tmp_path / "model_vecnormalize_80000_steps.pkl")
+    assert mod.main(str(ubend), str(tmp_path / "model_80000_steps.zip")) == 0
+    (tmp_path / "model_vecnormalize_80000_steps.pkl").write_bytes(b"other statistics")
+    assert mod.main(str(ubend), str(tmp_path / "model_80000_steps.zip")) == 1
