@@ -8,19 +8,21 @@ Each argument is a run folder (or a shipped policy's folder) holding ``final.zip
 ``final_vecnormalize.pkl``, or a checkpoint ``model_<N>_steps.zip`` whose normaliser
 ``model_vecnormalize_<N>_steps.pkl`` lies beside it.  The policy weights (``policy.pth`` inside the SB3 zip) are read
 with ``torch.load(weights_only=True)``, which loads tensors and never runs pickled code; the
-VecNormalize file is a plain pickle and is therefore compared by its bytes (SHA-256), never
+VecNormalize file is a plain pickle and is therefore compared by its bytes (SHA-256,
+``evertgym.agents.trust.sha256_of``), never
 loaded.  The zip files themselves differ between two identical trainings (SB3 stores the
 run's paths and timestamps), so their hashes prove nothing either way.  Exit status 0 when
 the weights and the normaliser are identical, 1 otherwise.
 """
 
-import hashlib
 import io
 import sys
 import zipfile
 from pathlib import Path
 
 import torch
+
+from evertgym.agents.trust import sha256_of
 
 
 def model_files(arg: str) -> tuple[Path, Path]:
@@ -48,10 +50,10 @@ def main(a: str, b: str) -> int:
         print(f"different architectures: {sorted(wa)} vs {sorted(wb)}")
         return 1
     diff = max(float((wa[k].double() - wb[k].double()).abs().max()) if wa[k].shape == wb[k].shape else float("inf") for k in wa)
-    n = sum(int(t.numel()) for t in wa.values())
-    digest = [hashlib.sha256(n.read_bytes()).hexdigest() if n.is_file() else None for n in (na, nb)]
-    same_norm = digest[0] == digest[1]
-    print(f"policy weights: {len(wa)} tensors, {n} numbers, largest difference {diff:.3g}"
+    numbers = sum(int(t.numel()) for t in wa.values())
+    da, db = (sha256_of(p) if p.is_file() else None for p in (na, nb))  # a run without VecNormalize has none
+    same_norm = da == db
+    print(f"policy weights: {len(wa)} tensors, {numbers} numbers, largest difference {diff:.3g}"
           f" ({'identical' if diff == 0 else 'different'})")
     print(f"VecNormalize statistics: {'identical bytes' if same_norm else 'different'}")
     return 0 if diff == 0 and same_norm else 1
