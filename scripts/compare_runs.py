@@ -6,13 +6,14 @@
 
 Each argument is a run folder (or a shipped policy's folder) holding ``final.zip`` and
 ``final_vecnormalize.pkl``, or a checkpoint ``model_<N>_steps.zip`` whose normaliser
-``model_vecnormalize_<N>_steps.pkl`` lies beside it.  The policy weights (``policy.pth`` inside the SB3 zip) are read
-with ``torch.load(weights_only=True)``, which loads tensors and never runs pickled code; the
-VecNormalize file is a plain pickle and is therefore compared by its bytes (SHA-256,
-``evertgym.agents.trust.sha256_of``), never
-loaded.  The zip files themselves differ between two identical trainings (SB3 stores the
-run's paths and timestamps), so their hashes prove nothing either way.  Exit status 0 when
-the weights and the normaliser are identical, 1 otherwise.
+``model_vecnormalize_<N>_steps.pkl`` lies beside it.  The policy weights (``policy.pth``
+inside the SB3 zip) are read with ``torch.load(weights_only=True)``, which loads tensors and
+never runs pickled code; the VecNormalize file is a plain pickle and is therefore compared by
+its bytes (``evertgym.agents.trust.sha256_of``), never loaded.  The zip files themselves
+differ between two identical trainings (SB3 stores the start time, the TensorBoard path, the
+episodes' wall-clock times and pickled class descriptions), so their hashes prove nothing
+either way.  Exit status 0 when the weights and the normaliser are identical, 1 otherwise,
+2 when a model file is missing.
 """
 
 import io
