@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, fields
 
 from evertgym._validate import check_range as _check
 from evertgym.model.eversion import GROWTH_GAIN_M_PER_S_PER_PA, MAX_GROWTH_SPEED_M_PER_S
@@ -66,6 +66,18 @@ class SimConfig:
         the window (a quasi-static force, the same for any step; :meth:`EversionSim._tip_reaction`).
     Events
         ``stall_time_s``: a stall is no growth faster than ``stall_speed_m_per_s`` for this long.
+    Engine
+        ``engine``: ``"quasistatic"`` (:mod:`evertgym.sim.quasistatic`: the body in static
+        equilibrium after every growth increment and pressure change, no mass, inertia or
+        damping; the clock ``dt_s`` advances the regulator and the growth law only) or
+        ``"dynamic"`` (the pymunk chain of :mod:`evertgym.sim.simulator`, bit for bit as before).
+        The quasi-static engine's numerical settings: ``growth_increment_m`` (the largest growth
+        between two equilibria near a wall; up to a segment in free space), ``solver_tolerance``
+        (the largest unbalanced moment and force over ``p pi r^3`` and ``p pi r^2``, ``p`` at
+        least 1 kPa), ``barrier_gap_m`` (IPC's d_hat: the contact barrier acts below this gap),
+        ``friction_slip_m`` (IPC's eps_v: tangential travel per increment at which a contact
+        slides), ``friction_lag_iterations`` (re-solves with the normal forces updated) and
+        ``max_newton_iterations``.  A field that means nothing to the chosen engine is rejected.
     """
 
     segment_length_m: float = 0.0075
@@ -98,6 +110,13 @@ class SimConfig:
     max_relax_steps: int = 50
     dormant_walls: bool = False
     wall_wake_margin_m: float = 0.03
+    engine: str = "dynamic"
+    growth_increment_m: float = 0.001
+    solver_tolerance: float = 1e-3
+    barrier_gap_m: float = 0.001
+    friction_slip_m: float = 1e-5
+    friction_lag_iterations: int = 2
+    max_newton_iterations: int = 60
 
     def __post_init__(self) -> None:
         _check("segment_length_m", self.segment_length_m, 0.0005, 0.05, lo_open=False)
@@ -130,7 +149,24 @@ class SimConfig:
         _check("wall_wake_margin_m", self.wall_wake_margin_m, 0.0, 100.0)
         if not isinstance(self.dormant_walls, bool):
             raise ValueError(f"dormant_walls = {self.dormant_walls!r} is out of range: allowed true or false")
-        if self.max_growth_speed_m_per_s * self.dt_s > 0.2 * self.segment_length_m:
+        if self.engine not in ENGINES:
+            raise ValueError(f"engine = {self.engine!r} is out of range: allowed {' or '.join(repr(e) for e in ENGINES)}")
+        _check("growth_increment_m", self.growth_increment_m, 1e-6, self.segment_length_m)
+        _check("solver_tolerance", self.solver_tolerance, 1e-9, 0.1)
+        _check("barrier_gap_m", self.barrier_gap_m, 1e-6, 0.01)
+        _check("friction_slip_m", self.friction_slip_m, 1e-9, 1e-3)
+        _check("friction_lag_iterations", self.friction_lag_iterations, 0, 20)
+        _check("max_newton_iterations", self.max_newton_iterations, 1, 10000)
+        other = "dynamic" if self.engine == "quasistatic" else "quasistatic"
+        foreign = DYNAMIC_ONLY if self.engine == "quasistatic" else QUASISTATIC_ONLY
+        for name in foreign:
+            if getattr(self, name) != _DEFAULTS[name]:
+                raise ValueError(f"{name} = {getattr(self, name)!r} means nothing to engine {self.engine!r}: it is a setting of "
+                                 f"engine {other!r} only (allowed: leave it at {_DEFAULTS[name]!r}, or set engine = {other!r})")
+        if self.engine == "quasistatic" and self.section_law:
+            raise ValueError("section_law = True is out of range for engine 'quasistatic': allowed false "
+                             "(the section law runs on engine 'dynamic')")
+        if self.engine == "dynamic" and self.max_growth_speed_m_per_s * self.dt_s > 0.2 * self.segment_length_m:
             raise ValueError(
                 f"max_growth_speed_m_per_s * dt_s = {self.max_growth_speed_m_per_s * self.dt_s:g} m per step is out of "
                 f"range: allowed <= 0.2 x segment_length_m ({0.2 * self.segment_length_m:g} m); lower dt_s"
@@ -138,3 +174,15 @@ class SimConfig:
 
     def to_dict(self) -> dict:
         return asdict(self)
+
+
+#: The engines ``SimConfig.engine`` takes.
+ENGINES = ("quasistatic", "dynamic")
+#: Settings of the dynamic pymunk chain (masses, damping, solver passes, relaxation, active set).
+DYNAMIC_ONLY = ("damping", "inertia_factor", "mass_ratio", "iterations", "law_interval", "freeze_speed_m_per_s", "freeze_time_s",
+                "rest_speed_m_per_s", "rest_pressure_tol_pa", "force_window_s", "relax_speed_m_per_s", "relax_length_m",
+                "relax_force_n", "max_relax_steps", "dormant_walls", "wall_wake_margin_m", "tail_drag_fraction")
+#: Settings of the quasi-static engine.
+QUASISTATIC_ONLY = ("growth_increment_m", "solver_tolerance", "barrier_gap_m", "friction_slip_m", "friction_lag_iterations",
+                    "max_newton_iterations")
+_DEFAULTS = {f.name: f.default for f in fields(SimConfig)}

@@ -26,18 +26,6 @@ def _wrap_deg(a: float) -> float:
     return (a + 180.0) % 360.0 - 180.0
 
 
-def _bodies_in_contact(sim: EversionSim) -> list[int]:
-    """Indices of the dynamic robot bodies that touch something (walls; the chain's own
-    shapes never collide)."""
-    touching = []
-    for j in range(sim.active_start, len(sim.bodies)):
-        arbiters: list = []
-        sim.bodies[j].each_arbiter(arbiters.append)
-        if arbiters:
-            touching.append(j)
-    return touching
-
-
 def jam_anatomy(sim: EversionSim, scene) -> dict:
     """Measure the tip region of ``sim`` (in ``scene``) as it is now.
 
@@ -51,9 +39,9 @@ def jam_anatomy(sim: EversionSim, scene) -> dict:
     its largest ``|M| / M_c``); ``pressure_margin_kpa`` (pressure minus the pressure the tip
     needs to grow: negative or zero while it is stalled).
     """
-    tip = len(sim.bodies) - 1
+    tip = len(sim.radii()) - 1
     ratios = np.abs(sim.joint_moments()) / np.maximum(sim.collapse_moments(), 1e-12)
-    touching = [j for j in _bodies_in_contact(sim) if j < tip]
+    touching = [j for j in sim.segments_in_contact() if j < tip]
     last = touching[-1] if touching else sim.active_start - 1
     span_start = float(sim.nodes[last]) + sim.ds if last >= 0 else 0.0
     span_joints = range(max(last + 1, 0), tip + 1)
@@ -61,7 +49,7 @@ def jam_anatomy(sim: EversionSim, scene) -> dict:
     s_tip, _ = scene.project(sim.tip_position)
     s_tip = float(np.atleast_1d(s_tip)[0])
     heading = float(np.interp(s_tip, scene.arclength, scene.heading))
-    tip_heading = float(sim.bodies[-1].angle)
+    tip_heading = float(sim.tip_angle)
     t = sim.tip_direction
     left = np.array([-t[1], t[0]])
     f = np.asarray(sim.tip_contact, float)

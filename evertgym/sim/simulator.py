@@ -32,7 +32,6 @@ Nothing renders here; use ``evertgym.scenes.render_rgb`` with :meth:`EversionSim
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 
 import numpy as np
 import pymunk
@@ -48,6 +47,7 @@ from evertgym.sim.chipmunk import arbiter_impulses, body_angles, set_rotary_stif
 from evertgym.sim.config import SimConfig
 from evertgym.sim.discretize import joint_moment, segment_inertia
 from evertgym.sim.dormant import WALL_REST_SPEED_M_PER_S, DormantWalls
+from evertgym.sim.events import SimEvent
 from evertgym.sim.growth import GrowthLaw, PressureRegulator
 from evertgym.sim.links import Link, make_link
 from evertgym.sim.material import material_tables
@@ -60,17 +60,6 @@ _FREEZE_INTERVAL = 25
 
 class NumericalInstabilityError(RuntimeError):
     """The simulation produced non-finite or exploding state; the message names the setting to change."""
-
-
-@dataclass
-class SimEvent:
-    t_s: float
-    kind: str  # "band_at_tip", "contact", "kink", "stall"
-    insertion_mm: float
-    detail: dict = field(default_factory=dict)
-
-    def to_dict(self) -> dict:
-        return {"t_s": self.t_s, "event": self.kind, "insertion_mm": self.insertion_mm, **self.detail}
 
 
 class EversionSim:
@@ -86,7 +75,19 @@ class EversionSim:
     base, direction: the base pin (m) and the initial growth direction.
     vertical_tail: add the weight of the hauled tail (vertical eversion test).
     threshold: eversion threshold law (the paper-calibrated one by default).
+
+    ``EversionSim(...)`` builds the engine ``config.engine`` names: with ``"quasistatic"`` it
+    returns a :class:`~evertgym.sim.quasistatic.QuasiStaticSim` (same arguments, same interface).
     """
+
+    engine = "dynamic"
+
+    def __new__(cls, design: TubeDesign, scene=None, config: SimConfig | None = None, *args, **kwargs):
+        if cls is EversionSim and (config or SimConfig()).engine == "quasistatic":
+            from evertgym.sim.quasistatic import QuasiStaticSim
+
+            return QuasiStaticSim(design, scene, config, *args, **kwargs)
+        return super().__new__(cls)
 
     def __init__(
         self,
@@ -696,6 +697,26 @@ class EversionSim:
             if b.velocity.length + abs(b.angular_velocity) * reach > vmax:
                 return False
         return True
+
+    @property
+    def tip_angle(self) -> float:
+        """Heading of the tip segment (rad)."""
+        return float(self.bodies[-1].angle)
+
+    def segments_in_contact(self) -> list[int]:
+        """Active segments that touch a wall in the last step."""
+        touching = []
+        for j in range(self.active_start, len(self.bodies)):
+            arbiters: list = []
+            self.bodies[j].each_arbiter(arbiters.append)
+            if arbiters:
+                touching.append(j)
+        return touching
+
+    @property
+    def solve_stats(self) -> dict:
+        """Empty: the dynamic engine has no equilibrium solves to count."""
+        return {}
 
     @property
     def at_rest(self) -> bool:

@@ -1,0 +1,638 @@
+"""Compiled inner loop of the quasi-static engine: one static equilibrium of the active window.
+
+The unknowns are the relative rotations ``phi`` (rad) of the window's joints and the
+displacements ``u = (dx, dy, dtheta)`` (m, m, rad) of the compliant wall pieces near it.  The
+window's first node and the direction of the segment before it are held; node ``k + 1`` is
+``node k + l_k (cos theta_k, sin theta_k)`` with ``theta_k = theta_0 + sum_{j <= k} phi_j``.
+Equilibrium is the stationary point of the incremental potential (Incremental Potential
+Contact, Li et al., SIGGRAPH 2020):
+
+    E = sum_j W_j(phi_j)                       joint law (linear, tension field, kink plateau)
+      + sum_pairs kappa b(d)                   log barrier on every robot-wall capsule gap d < d_hat
+      + sum_lagged mu lambda f0(|u_T|)         Coulomb friction, normal force and tangent lagged
+      + 1/2 u^T K u + u^T f_h + travel(u)      compliant wall pieces (linear springs, tether stop)
+
+``b(d) = -(d - d_hat)^2 ln(d / d_hat)``; ``f0`` is IPC's smoothed sliding potential (slip above
+``eps_v`` of tangential displacement per increment).  Newton with a Levenberg shift where the
+Hessian is indefinite (a collapse plateau under compression) and a backtracking line search
+that keeps every gap positive.  The stop is a force criterion: the largest unbalanced joint
+moment below ``tol_m`` (N m) and the largest unbalanced wall-piece force below ``tol_f`` (N).
+
+Everything is SI.  The functions are compiled with numba (``cache=True``); the first call in a
+fresh environment compiles them (a few seconds), later processes load the cache.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+_JIT = {"cache": True, "nogil": True, "fastmath": False}
+
+#: solve status codes
+CONVERGED = 0
+MAX_ITERATIONS = 1
+LINE_SEARCH_FAILED = 2
+INFEASIBLE_START = 3
+
+
+@nb.njit(**_JIT)
+def _law_eval(x: float, table_u: np.ndarray, table_h: np.ndarray, table_hi: np.ndarray, slope_tail: float):
+    """Normalised wrinkled law at curvature ratio ``x >= 1``: ``(h, dh/dx, H)`` with ``h = M / M_c``
+    and ``H = int_1^x h``; tabulated in ``ln x`` on a uniform grid, linear beyond its end."""
+    u = math.log(x)
+    du = table_u[1] - table_u[0]
+    n = table_u.shape[0]
+    if u >= table_u[n - 1]:
+        x_end = math.exp(table_u[n - 1])
+        h = table_h[n - 1] + slope_tail * (x - x_end)
+        hi = table_hi[n - 1] + table_h[n - 1] * (x - x_end) + 0.5 * slope_tail * (x - x_end) ** 2
+        return h, slope_tail, hi
+    i = int(u / du)
+    if i > n - 2:
+        i = n - 2
+    t = (u - table_u[i]) / du
+    h = table_h[i] * (1.0 - t) + table_h[i + 1] * t
+    x0 = math.exp(table_u[i])
+    x1 = math.exp(table_u[i + 1])
+    dh = (table_h[i + 1] - table_h[i]) / (x1 - x0)
+    # the integral of the linear-in-x interpolant over [x0, x]
+    hi = table_hi[i] + (x - x0) * (table_h[i] + 0.5 * dh * (x - x0))
+    return h, dh, hi
+
+
+@nb.njit(**_JIT)
+def joint_law(phi: float, k: float, mw: float, table_u, table_h, table_hi, slope_tail, residual: float):
+    """``(W, M, dM/dphi)`` of one joint: energy (J), moment (N m) and tangent stiffness (N m/rad).
+    Linear ``k phi`` up to the wrinkling moment ``mw``, then ``M_c h(phi / phi_w)`` (the
+    tension-field law with its kink plateau), never below ``residual k phi``."""
+    if mw <= 0.0:
+        kr = residual * k
+        return 0.5 * kr * phi * phi, kr * phi, kr
+    phiw = mw / k
+    a = abs(phi)
+    if a <= phiw:
+        return 0.5 * k * phi * phi, k * phi, k
+    mc = 2.0 * mw
+    h, dh, hi = _law_eval(a / phiw, table_u, table_h, table_hi, slope_tail)
+    s = 1.0 if phi > 0 else -1.0
+    return 0.5 * k * phiw * phiw + mc * phiw * hi, s * mc * h, mc * dh / phiw
+
+
+@nb.njit(**_JIT)
+def _closest(ax, ay, bx, by, cx, cy, dx, dy):
+    """Closest points of segments ab and cd: ``(s, t, px, py, qx, qy, dist)`` with p = a + s (b - a)."""
+    ux = bx - ax
+    uy = by - ay
+    vx = dx - cx
+    vy = dy - cy
+    wx = ax - cx
+    wy = ay - cy
+    a = ux * ux + uy * uy
+    b = ux * vx + uy * vy
+    c = vx * vx + vy * vy
+    d = ux * wx + uy * wy
+    e = vx * wx + vy * wy
+    den = a * c - b * b
+    if den > 1e-14 * a * c and den > 0.0:
+        s = (b * e - c * d) / den
+        s = min(max(s, 0.0), 1.0)
+    else:
+        s = 0.0
+    t = (b * s + e) / c if c > 0.0 else 0.0
+    if t < 0.0:
+        t = 0.0
+        s = min(max(-d / a, 0.0), 1.0) if a > 0.0 else 0.0
+    elif t > 1.0:
+        t = 1.0
+        s = min(max((b - d) / a, 0.0), 1.0) if a > 0.0 else 0.0
+    px = ax + s * ux
+    py = ay + s * uy
+    qx = cx + t * vx
+    qy = cy + t * vy
+    dist = math.sqrt((px - qx) ** 2 + (py - qy) ** 2)
+    return s, t, px, py, qx, qy, dist
+
+
+@nb.njit(**_JIT)
+def _point_segment(px, py, ax, ay, bx, by):
+    """Closest point of segment ab to p: ``(t, qx, qy, dist)`` with q = a + t (b - a)."""
+    ux = bx - ax
+    uy = by - ay
+    uu = ux * ux + uy * uy
+    t = ((px - ax) * ux + (py - ay) * uy) / uu if uu > 0.0 else 0.0
+    t = min(max(t, 0.0), 1.0)
+    qx = ax + t * ux
+    qy = ay + t * uy
+    return t, qx, qy, math.sqrt((px - qx) ** 2 + (py - qy) ** 2)
+
+
+@nb.njit(**_JIT)
+def _pair(ax, ay, bx, by, cx, cy, dx, dy, is_vertex):
+    """IPC's point-edge pairs in 2-D, each smooth where a segment-segment distance is not: a wall
+    vertex c against the robot segment ab, or the robot node b (the segment's distal end) against
+    the wall segment cd.  Returns ``(s, px, py, qx, qy, dist)``: p on the robot at parameter s of ab,
+    q on the wall."""
+    if is_vertex:
+        s, px, py, dist = _point_segment(cx, cy, ax, ay, bx, by)
+        return s, px, py, cx, cy, dist
+    _, qx, qy, dist = _point_segment(bx, by, cx, cy, dx, dy)
+    return 1.0, bx, by, qx, qy, dist
+
+
+@nb.njit(**_JIT)
+def chain_nodes(theta0: float, n0: np.ndarray, phi: np.ndarray, seg_len: np.ndarray):
+    """Node positions (m + 1, 2) and segment directions (m,) of the window."""
+    m = phi.shape[0]
+    nodes = np.empty((m + 1, 2))
+    theta = np.empty(m)
+    nodes[0, 0] = n0[0]
+    nodes[0, 1] = n0[1]
+    th = theta0
+    for k in range(m):
+        th += phi[k]
+        theta[k] = th
+        nodes[k + 1, 0] = nodes[k, 0] + seg_len[k] * math.cos(th)
+        nodes[k + 1, 1] = nodes[k, 1] + seg_len[k] * math.sin(th)
+    return nodes, theta
+
+
+@nb.njit(**_JIT)
+def wall_world(w: int, wa, wb, wpiece, pc0, u):
+    """World end points of wall segment ``w`` (static: as stored; a piece's: moved with it)."""
+    p = wpiece[w]
+    if p < 0:
+        return wa[w, 0], wa[w, 1], wb[w, 0], wb[w, 1]
+    c = math.cos(u[p, 2])
+    s = math.sin(u[p, 2])
+    ox = pc0[p, 0] + u[p, 0]
+    oy = pc0[p, 1] + u[p, 1]
+    return (ox + c * wa[w, 0] - s * wa[w, 1], oy + s * wa[w, 0] + c * wa[w, 1],
+            ox + c * wb[w, 0] - s * wb[w, 1], oy + s * wb[w, 0] + c * wb[w, 1])
+
+
+@nb.njit(**_JIT)
+def _barrier(d: float, dhat: float):
+    """``b(d), b'(d), b''(d)`` of the IPC log barrier (0 beyond ``dhat``)."""
+    if d >= dhat:
+        return 0.0, 0.0, 0.0
+    r = d - dhat
+    lg = math.log(d / dhat)
+    return -r * r * lg, -2.0 * r * lg - r * r / d, -2.0 * lg - 4.0 * r / d + r * r / (d * d)
+
+
+@nb.njit(**_JIT)
+def _f0(y: float, eps: float):
+    """IPC's smoothed sliding potential: ``f0(y)``, ``f1(y) / y`` (force per slip) and ``f1'(y)``
+    (the exact stiffness of the one-dimensional tangent of a planar contact: 0 once sliding)."""
+    if y >= eps:
+        return y, 1.0 / y, 0.0
+    return y * y / eps - y ** 3 / (3.0 * eps * eps) + eps / 3.0, (2.0 / eps - y / (eps * eps)), 2.0 / eps - 2.0 * y / (eps * eps)
+
+
+@nb.njit(**_JIT)
+def contacts(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, dhat, margin):
+    """Every robot-wall pair (:func:`_pair`) with gap below ``dhat + margin``: rows of
+    ``(k, w, s, 0, px, py, qx, qy, nx, ny, gap)`` as float (k: window segment, w: wall feature,
+    s: parameter of the robot point p on segment k, q: the wall point, n: unit normal from q to p)."""
+    nodes, theta = chain_nodes(theta0, n0, phi, seg_len)
+    m = phi.shape[0]
+    nw = wa.shape[0]
+    out = np.empty((m * 4 + 16, 11))
+    cnt = 0
+    for k in range(m):
+        ax = nodes[k, 0]
+        ay = nodes[k, 1]
+        bx = nodes[k + 1, 0]
+        by = nodes[k + 1, 1]
+        mx = 0.5 * (ax + bx)
+        my = 0.5 * (ay + by)
+        half = 0.5 * seg_len[k]
+        for w in range(nw):
+            cx, cy, dx, dy = wall_world(w, wa, wb, wpiece, pc0, u)
+            reach = half + 0.5 * math.sqrt((dx - cx) ** 2 + (dy - cy) ** 2) + seg_rad[k] + wrad[w] + dhat + margin
+            if (0.5 * (cx + dx) - mx) ** 2 + (0.5 * (cy + dy) - my) ** 2 > reach * reach:
+                continue
+            s, px, py, qx, qy, dist = _pair(ax, ay, bx, by, cx, cy, dx, dy, wvert[w])
+            gap = dist - seg_rad[k] - wrad[w]
+            if gap >= dhat + margin:
+                continue
+            if cnt == out.shape[0]:
+                bigger = np.empty((2 * cnt, 11))
+                bigger[:cnt] = out
+                out = bigger
+            nx = (px - qx) / dist if dist > 0 else 0.0
+            ny = (py - qy) / dist if dist > 0 else 0.0
+            out[cnt, 0] = k
+            out[cnt, 1] = w
+            out[cnt, 2] = s
+            out[cnt, 3] = 0.0
+            out[cnt, 4] = px
+            out[cnt, 5] = py
+            out[cnt, 6] = qx
+            out[cnt, 7] = qy
+            out[cnt, 8] = nx
+            out[cnt, 9] = ny
+            out[cnt, 10] = gap
+            cnt += 1
+    return out[:cnt]
+
+
+@nb.njit(**_JIT)
+def energy(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
+           wa, wb, wpiece, wvert, wrad, pc0, u, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0, fr_xw0,
+           dhat, kappa, eps_v):
+    """The incremental potential (J); ``inf`` where any robot-wall gap is not positive."""
+    m = phi.shape[0]
+    e = 0.0
+    for j in range(m):
+        w_, _, _ = joint_law(phi[j], k_j[j], mw_j[j], law_u, law_h, law_hi, law_slope, residual)
+        e += w_
+    nodes, theta = chain_nodes(theta0, n0, phi, seg_len)
+    nw = wa.shape[0]
+    for k in range(m):
+        ax = nodes[k, 0]
+        ay = nodes[k, 1]
+        bx = nodes[k + 1, 0]
+        by = nodes[k + 1, 1]
+        mx = 0.5 * (ax + bx)
+        my = 0.5 * (ay + by)
+        half = 0.5 * seg_len[k]
+        for w in range(nw):
+            cx, cy, dx, dy = wall_world(w, wa, wb, wpiece, pc0, u)
+            reach = half + 0.5 * math.sqrt((dx - cx) ** 2 + (dy - cy) ** 2) + seg_rad[k] + wrad[w] + dhat
+            if (0.5 * (cx + dx) - mx) ** 2 + (0.5 * (cy + dy) - my) ** 2 > reach * reach:
+                continue
+            s, px, py, qx, qy, dist = _pair(ax, ay, bx, by, cx, cy, dx, dy, wvert[w])
+            gap = dist - seg_rad[k] - wrad[w]
+            if gap <= 0.0:
+                return np.inf
+            b, _, _ = _barrier(gap, dhat)
+            e += kappa * b
+    # lagged friction
+    for c in range(fr_k.shape[0]):
+        k = fr_k[c]
+        s = fr_s[c]
+        xr = nodes[k, 0] * (1 - s) + nodes[k + 1, 0] * s
+        yr = nodes[k, 1] * (1 - s) + nodes[k + 1, 1] * s
+        w = fr_w[c]
+        xw, yw = _wall_point(w, fr_wl[c, 0], fr_wl[c, 1], wpiece, pc0, u)
+        ut = ((xr - fr_xr0[c, 0]) - (xw - fr_xw0[c, 0])) * fr_t[c, 0] + ((yr - fr_xr0[c, 1]) - (yw - fr_xw0[c, 1])) * fr_t[c, 1]
+        f0, _, _ = _f0(abs(ut), eps_v)
+        e += fr_mulam[c] * f0
+    # compliant wall pieces
+    npc = u.shape[0]
+    if npc > 0:
+        flat = u.ravel()
+        e += 0.5 * flat @ (kaa @ flat) + flat @ fh
+        for p in range(npc):
+            r = math.sqrt(u[p, 0] ** 2 + u[p, 1] ** 2)
+            if r > travel[p]:
+                e += 0.5 * k_travel[p] * (r - travel[p]) ** 2
+    return e
+
+
+@nb.njit(**_JIT)
+def _wall_point(w, lx, ly, wpiece, pc0, u):
+    """World position of a point given in wall segment ``w``'s body frame (world for static walls)."""
+    p = wpiece[w]
+    if p < 0:
+        return lx, ly
+    c = math.cos(u[p, 2])
+    s = math.sin(u[p, 2])
+    return pc0[p, 0] + u[p, 0] + c * lx - s * ly, pc0[p, 1] + u[p, 1] + s * lx + c * ly
+
+
+@nb.njit(**_JIT)
+def _add_point_force(k, px, py, fx, fy, acc_f, acc_m, acc_fx):
+    """Accumulate a force ``f`` (on the robot) at ``p`` on segment ``k``: sums per segment of f,
+    p x f and f . p (for the generalised forces and the geometric stiffness)."""
+    acc_f[k, 0] += fx
+    acc_f[k, 1] += fy
+    acc_m[k] += px * fy - py * fx
+    acc_fx[k] += fx * px + fy * py
+
+
+@nb.njit(**_JIT)
+def _rank1(hess, m, k, px, py, nodes, dirx, diry, piece, pc_x, pc_y, wx, wy, coef):
+    """``hess += coef g g^T`` for the gradient ``g`` of ``dir . (p - q)``: robot joints ``j <= k``
+    (``(p - n_j) x dir``) and, if ``piece >= 0``, the piece's dofs (``-dir``, ``-(q - c) x dir``)."""
+    g = np.zeros(m + 3)
+    for j in range(k + 1):
+        g[j] = (px - nodes[j, 0]) * diry - (py - nodes[j, 1]) * dirx
+    kmax = k + 1
+    if piece >= 0:
+        g[m] = -dirx
+        g[m + 1] = -diry
+        g[m + 2] = -((wx - pc_x) * diry - (wy - pc_y) * dirx)
+    idx = np.empty(kmax + 3, dtype=np.int64)
+    for j in range(kmax):
+        idx[j] = j
+    nidx = kmax
+    if piece >= 0:
+        base = m + 3 * piece
+        idx[nidx] = base
+        idx[nidx + 1] = base + 1
+        idx[nidx + 2] = base + 2
+        nidx += 3
+    for a in range(nidx):
+        ga = g[a] if a < kmax else g[m + a - kmax]
+        if ga == 0.0:
+            continue
+        for b in range(nidx):
+            gb = g[b] if b < kmax else g[m + b - kmax]
+            hess[idx[a], idx[b]] += coef * ga * gb
+
+
+@nb.njit(**_JIT)
+def _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0, fr_xw0,
+                   dhat, kappa, eps_v, grad, hess, want_hess):
+    """Barrier and lagged-friction forces of the window: per segment the sums of the force on the
+    robot ``f`` (N), of ``p x f`` (N m) and of ``f . p`` (N m); the wall pieces' generalised forces
+    go into ``grad[m:]``, the rank-one Hessian terms into ``hess`` (if ``want_hess``).  Also the
+    wall's reaction against growth ``-sum s f . e_tip`` over the tip segment (N) and the total force
+    on the tip segment (N)."""
+    acc_f = np.zeros((m, 2))
+    acc_m = np.zeros(m)
+    acc_fx = np.zeros(m)
+    ex = (nodes[m, 0] - nodes[m - 1, 0]) / seg_len[m - 1]
+    ey = (nodes[m, 1] - nodes[m - 1, 1]) / seg_len[m - 1]
+    tip = np.zeros(3)
+    nw = wa.shape[0]
+    for k in range(m):
+        ax = nodes[k, 0]
+        ay = nodes[k, 1]
+        bx = nodes[k + 1, 0]
+        by = nodes[k + 1, 1]
+        mx = 0.5 * (ax + bx)
+        my = 0.5 * (ay + by)
+        half = 0.5 * seg_len[k]
+        for w in range(nw):
+            cx, cy, dx, dy = wall_world(w, wa, wb, wpiece, pc0, u)
+            reach = half + 0.5 * math.sqrt((dx - cx) ** 2 + (dy - cy) ** 2) + seg_rad[k] + wrad[w] + dhat
+            if (0.5 * (cx + dx) - mx) ** 2 + (0.5 * (cy + dy) - my) ** 2 > reach * reach:
+                continue
+            s, px, py, qx, qy, dist = _pair(ax, ay, bx, by, cx, cy, dx, dy, wvert[w])
+            gap = dist - seg_rad[k] - wrad[w]
+            if gap >= dhat or gap <= 0.0:
+                continue
+            _, b1, b2 = _barrier(gap, dhat)
+            nx = (px - qx) / dist
+            ny = (py - qy) / dist
+            fmag = -kappa * b1  # > 0: pushes the robot away from the wall
+            _add_point_force(k, px, py, fmag * nx, fmag * ny, acc_f, acc_m, acc_fx)
+            if k == m - 1:
+                tip[0] -= s * fmag * (nx * ex + ny * ey)
+                tip[1] += fmag * nx
+                tip[2] += fmag * ny
+            p = wpiece[w]
+            ccx = pc0[p, 0] + u[p, 0] if p >= 0 else 0.0
+            ccy = pc0[p, 1] + u[p, 1] if p >= 0 else 0.0
+            if p >= 0:  # the wall piece feels the opposite force at q
+                o = m + 3 * p
+                grad[o] += fmag * nx
+                grad[o + 1] += fmag * ny
+                grad[o + 2] += (qx - ccx) * fmag * ny - (qy - ccy) * fmag * nx
+            if want_hess:
+                _rank1(hess, m, k, px, py, nodes, nx, ny, p, ccx, ccy, qx, qy, kappa * b2)
+    for c in range(fr_k.shape[0]):
+        k = fr_k[c]
+        s = fr_s[c]
+        xr = nodes[k, 0] * (1 - s) + nodes[k + 1, 0] * s
+        yr = nodes[k, 1] * (1 - s) + nodes[k + 1, 1] * s
+        w = fr_w[c]
+        xw, yw = _wall_point(w, fr_wl[c, 0], fr_wl[c, 1], wpiece, pc0, u)
+        tx = fr_t[c, 0]
+        ty = fr_t[c, 1]
+        ut = ((xr - fr_xr0[c, 0]) - (xw - fr_xw0[c, 0])) * tx + ((yr - fr_xr0[c, 1]) - (yw - fr_xw0[c, 1])) * ty
+        _, f1y, df1 = _f0(abs(ut), eps_v)
+        ff = -fr_mulam[c] * f1y * ut  # tangential force on the robot (along t)
+        _add_point_force(k, xr, yr, ff * tx, ff * ty, acc_f, acc_m, acc_fx)
+        if k == m - 1:
+            tip[0] -= s * ff * (tx * ex + ty * ey)
+            tip[1] += ff * tx
+            tip[2] += ff * ty
+        p = wpiece[w]
+        ccx = pc0[p, 0] + u[p, 0] if p >= 0 else 0.0
+        ccy = pc0[p, 1] + u[p, 1] if p >= 0 else 0.0
+        if p >= 0:
+            o = m + 3 * p
+            grad[o] += ff * tx
+            grad[o + 1] += ff * ty
+            grad[o + 2] += (xw - ccx) * ff * ty - (yw - ccy) * ff * tx
+        if want_hess:
+            _rank1(hess, m, k, xr, yr, nodes, tx, ty, p, ccx, ccy, xw, yw, fr_mulam[c] * df1)
+    return acc_f, acc_m, acc_fx, tip
+
+
+@nb.njit(**_JIT)
+def segment_forces(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0,
+                   fr_xw0, dhat, kappa, eps_v):
+    """The wall forces on the window at ``phi``: per segment the force (N, m x 2) and its moment
+    about the origin (N m, m); and ``(F_tip, fx, fy)``: the reaction against growth and the total
+    force on the tip segment (N)."""
+    nodes, _ = chain_nodes(theta0, n0, phi, seg_len)
+    m = phi.shape[0]
+    grad = np.zeros(m + 3 * u.shape[0])
+    acc_f, acc_m, _, tip = _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, fr_k, fr_s, fr_w, fr_wl, fr_t,
+                                          fr_mulam, fr_xr0, fr_xw0, dhat, kappa, eps_v, grad, np.zeros((1, 1)), False)
+    return acc_f, acc_m, tip
+
+
+@nb.njit(**_JIT)
+def joint_moments(phi, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual):
+    """Moments (N m) of joints at ``phi`` (rad) under :func:`joint_law`."""
+    out = np.empty(phi.shape[0])
+    for j in range(phi.shape[0]):
+        out[j] = joint_law(phi[j], k_j[j], mw_j[j], law_u, law_h, law_hi, law_slope, residual)[1]
+    return out
+
+
+@nb.njit(**_JIT)
+def grad_hess(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
+              wa, wb, wpiece, wvert, wrad, pc0, u, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0, fr_xw0,
+              dhat, kappa, eps_v, want_hess):
+    """Gradient (n,) and Hessian (n, n) of :func:`energy` over ``z = [phi, u.ravel()]``; the
+    Hessian drops the distance's own curvature (Gauss-Newton on the normal) but keeps the
+    chain's geometric stiffness under every contact and friction force."""
+    m = phi.shape[0]
+    npc = u.shape[0]
+    n = m + 3 * npc
+    grad = np.zeros(n)
+    hess = np.zeros((n, n)) if want_hess else np.zeros((1, 1))
+    for j in range(m):
+        _, mj, dmj = joint_law(phi[j], k_j[j], mw_j[j], law_u, law_h, law_hi, law_slope, residual)
+        grad[j] += mj
+        if want_hess:
+            hess[j, j] += dmj
+    nodes, theta = chain_nodes(theta0, n0, phi, seg_len)
+    acc_f, acc_m, acc_fx, _ = _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, fr_k, fr_s, fr_w, fr_wl, fr_t,
+                                             fr_mulam, fr_xr0, fr_xw0, dhat, kappa, eps_v, grad, hess, want_hess)
+    # generalised forces of the contact and friction forces on the joints: suffix sums
+    sfx = 0.0
+    sfy = 0.0
+    sm = 0.0
+    sfp = 0.0
+    gsum = np.zeros(m)  # G(M) = sum_{k >= M} f . (p - n_M)
+    for j in range(m - 1, -1, -1):
+        sfx += acc_f[j, 0]
+        sfy += acc_f[j, 1]
+        sm += acc_m[j]
+        sfp += acc_fx[j]
+        # dE/dphi_j = -(sum (p - n_j) x f)
+        grad[j] -= sm - (nodes[j, 0] * sfy - nodes[j, 1] * sfx)
+        gsum[j] = sfp - (nodes[j, 0] * sfx + nodes[j, 1] * sfy)
+    if want_hess:
+        for i in range(m):
+            for j in range(m):
+                hess[i, j] += gsum[max(i, j)]
+    # compliant pieces: springs and the tether stop
+    if npc > 0:
+        flat = u.ravel()
+        gw = kaa @ flat + fh
+        for i in range(3 * npc):
+            grad[m + i] += gw[i]
+        if want_hess:
+            hess[m:, m:] += kaa
+        for p in range(npc):
+            r = math.sqrt(u[p, 0] ** 2 + u[p, 1] ** 2)
+            if r > travel[p]:
+                o = m + 3 * p
+                ex = u[p, 0] / r
+                ey = u[p, 1] / r
+                f = k_travel[p] * (r - travel[p])
+                grad[o] += f * ex
+                grad[o + 1] += f * ey
+                if want_hess:
+                    hess[o, o] += k_travel[p] * ex * ex + f / r * (1 - ex * ex)
+                    hess[o, o + 1] += k_travel[p] * ex * ey - f / r * ex * ey
+                    hess[o + 1, o] += k_travel[p] * ex * ey - f / r * ex * ey
+                    hess[o + 1, o + 1] += k_travel[p] * ey * ey + f / r * (1 - ey * ey)
+    return grad, hess
+
+
+@nb.njit(**_JIT)
+def _cholesky_solve(hess, rhs):
+    """Solve ``(H + mu I) x = rhs`` with the smallest shift ``mu`` (0 or growing by 10) that
+    makes the matrix positive definite; returns ``(x, ok)``."""
+    n = hess.shape[0]
+    diag_max = 0.0
+    for i in range(n):
+        diag_max = max(diag_max, abs(hess[i, i]))
+    mu = 0.0
+    for _ in range(40):
+        a = hess.copy()
+        for i in range(n):
+            a[i, i] += mu
+        ok = True
+        # in-place Cholesky
+        for j in range(n):
+            s = a[j, j]
+            for k in range(j):
+                s -= a[j, k] * a[j, k]
+            if s <= 0.0 or not math.isfinite(s):
+                ok = False
+                break
+            a[j, j] = math.sqrt(s)
+            for i in range(j + 1, n):
+                t = a[i, j]
+                for k in range(j):
+                    t -= a[i, k] * a[j, k]
+                a[i, j] = t / a[j, j]
+        if ok:
+            y = np.empty(n)
+            for i in range(n):
+                t = rhs[i]
+                for k in range(i):
+                    t -= a[i, k] * y[k]
+                y[i] = t / a[i, i]
+            x = np.empty(n)
+            for i in range(n - 1, -1, -1):
+                t = y[i]
+                for k in range(i + 1, n):
+                    t -= a[k, i] * x[k]
+                x[i] = t / a[i, i]
+            return x, True
+        mu = max(1e-8 * diag_max, 1e-12) if mu == 0.0 else mu * 10.0
+    return np.zeros(n), False
+
+
+@nb.njit(**_JIT)
+def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
+          wa, wb, wpiece, wvert, wrad, pc0, u, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0, fr_xw0,
+          dhat, kappa, eps_v, tol_m, tol_f, max_iter, max_move):
+    """Newton's method on :func:`energy` from ``(phi, u)`` (updated in place).
+
+    Returns ``(status, iterations, residual_m, residual_f)``: the largest unbalanced joint
+    moment (N m) and wall-piece force (N) at the end; ``status`` is :data:`CONVERGED` when they
+    are below ``tol_m`` and ``tol_f``.  A step moves no node by more than ``max_move`` (m)."""
+    m = phi.shape[0]
+    npc = u.shape[0]
+    n = m + 3 * npc
+    e0 = energy(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
+                wa, wb, wpiece, wvert, wrad, pc0, u, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0, fr_xw0,
+                dhat, kappa, eps_v)
+    if not math.isfinite(e0):
+        return INFEASIBLE_START, 0, np.inf, np.inf
+    res_m = np.inf
+    res_f = np.inf
+    for it in range(max_iter + 1):
+        grad, hess = grad_hess(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
+                               wa, wb, wpiece, wvert, wrad, pc0, u, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam,
+                               fr_xr0, fr_xw0, dhat, kappa, eps_v, True)
+        res_m = 0.0
+        for j in range(m):
+            res_m = max(res_m, abs(grad[j]))
+        res_f = 0.0
+        for p in range(npc):
+            res_f = max(res_f, abs(grad[m + 3 * p]), abs(grad[m + 3 * p + 1]))
+            res_m = max(res_m, abs(grad[m + 3 * p + 2]))
+        if res_m <= tol_m and res_f <= tol_f:
+            return CONVERGED, it, res_m, res_f
+        if it == max_iter:
+            break
+        step, ok = _cholesky_solve(hess, -grad)
+        if not ok:
+            return LINE_SEARCH_FAILED, it, res_m, res_f
+        # limit the step: no joint turns by more than 0.5 rad, no node moves more than max_move
+        smax = 0.0
+        for j in range(m):
+            smax = max(smax, abs(step[j]))
+        scale = 1.0 if smax <= 0.5 else 0.5 / smax
+        nodes0, _ = chain_nodes(theta0, n0, phi, seg_len)
+        trial_phi = phi + scale * step[:m]
+        nodes1, _ = chain_nodes(theta0, n0, trial_phi, seg_len)
+        move = 0.0
+        for j in range(m + 1):
+            move = max(move, math.sqrt((nodes1[j, 0] - nodes0[j, 0]) ** 2 + (nodes1[j, 1] - nodes0[j, 1]) ** 2))
+        for p in range(npc):
+            move = max(move, math.sqrt(step[m + 3 * p] ** 2 + step[m + 3 * p + 1] ** 2) * scale)
+        if move > max_move:
+            scale *= max_move / move
+        slope = 0.0
+        for i in range(n):
+            slope += grad[i] * step[i]
+        alpha = scale
+        accepted = False
+        u_try = u.copy()
+        for _ in range(60):
+            trial_phi = phi + alpha * step[:m]
+            for p in range(npc):
+                u_try[p, 0] = u[p, 0] + alpha * step[m + 3 * p]
+                u_try[p, 1] = u[p, 1] + alpha * step[m + 3 * p + 1]
+                u_try[p, 2] = u[p, 2] + alpha * step[m + 3 * p + 2]
+            e1 = energy(theta0, n0, trial_phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
+                        wa, wb, wpiece, wvert, wrad, pc0, u_try, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam,
+                        fr_xr0, fr_xw0, dhat, kappa, eps_v)
+            if math.isfinite(e1) and (e1 <= e0 + 1e-4 * alpha * slope or (e1 - e0) <= 1e-13 * abs(e0)):
+                accepted = True
+                break
+            alpha *= 0.5
+        if not accepted:
+            return LINE_SEARCH_FAILED, it, res_m, res_f
+        phi[:] = trial_phi
+        u[:, :] = u_try
+        e0 = e1
+    return MAX_ITERATIONS, max_iter, res_m, res_f

@@ -1,0 +1,789 @@
+"""The quasi-static engine: the everted body in static equilibrium at every growth increment.
+
+A real vine robot weighs about 9 g/m and grows at the rate its eversion allows: at every
+length its shape is a static equilibrium.  This engine computes exactly that, with no mass,
+inertia or damping to tune (``shared/notes/bend-physics.md``, sections 8-9; issue 25):
+
+* **Kinematics.** The body is the same chain of segments as the dynamic engine's (joint ``j``
+  at material coordinate ``j ds``; the tip segment lengthens from ``ds`` to ``2 ds``, then
+  splits), described by its joint rotations from the base clamp.  Growth is kinematic: it
+  lengthens the tip segment along its heading.
+* **Equilibrium.** After every growth increment and every pressure change the joints within
+  ``active_length_m`` of the tip (and any held joint that is out of balance, see below), with
+  the compliant wall pieces near them, are put in equilibrium by Newton's method on the
+  incremental potential of :mod:`evertgym.sim.qs_kernel`: the calibrated joint law (the
+  rod-derived stiffness scaled with ``E_eff(p)``, wrinkling at ``p pi r^3 / 2``, the
+  tension-field law to the kink plateau), IPC log barriers on every robot-wall capsule gap
+  (``barrier_gap_m``), Coulomb friction lagged per increment (the wall's normal force and
+  tangent from the last solution, iterated ``friction_lag_iterations`` times, sliding beyond
+  ``friction_slip_m`` of tangential travel per increment; a contact sticks below ``mu N``) and
+  the compliant wall's linear springs and travel stop.  The solve stops on a force criterion:
+  every unbalanced joint moment below ``solver_tolerance p pi r^3`` and every unbalanced
+  wall-piece force below ``solver_tolerance p pi r^2`` (with ``p`` at least 1 kPa).
+* **Held joints.** Joints behind the window keep their angles; after every solve the moment
+  each one must carry (from every contact force distal to it) is checked against its own
+  moment, and a joint out of balance by more than the tolerance rejoins the solve.
+* **Time** comes from the growth law alone (:mod:`evertgym.sim.growth`): the clock advances
+  the regulator and the eversion rate ``v = K_g (p - p_req)`` by ``dt_s``, where ``p_req``
+  holds the wall's reaction against growth ``F_tip = -dE/dL`` of the last equilibrium; the
+  tip's growth is solved in increments of at most ``growth_increment_m``.  An increment after
+  which the tip would need more pressure than it has is cut back (bisection) to the length at
+  which the reaction balances the drive: a stall's position does not depend on the increment.
+
+Contact geometry comes from the scene's pymunk shapes: the walls are read once from them
+(static segments; the compliant wall's pieces with their outlines) and a bounding-box query
+of the space picks the walls near the window at every solve.  Every solve is counted; one that
+ends above the tolerance is counted in :attr:`QuasiStaticSim.solve_failures` and reported, never
+hidden.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pymunk
+
+from evertgym.design import TubeDesign
+from evertgym.limits import MAX_EVENTS
+from evertgym.model.eversion import EversionThreshold, tail_weight_pressure
+from evertgym.model.params import ModelParams, load_params
+from evertgym.model.pressure import _END_SLOPE, KINK_MOMENT_FRACTION, InflatedBeamLaw, wrinkled_moment_fraction
+from evertgym.sim import qs_kernel as qk
+from evertgym.sim.config import SimConfig
+from evertgym.sim.discretize import RESIDUAL_STIFFNESS_FRACTION
+from evertgym.sim.events import SimEvent
+from evertgym.sim.growth import GrowthLaw, PressureRegulator
+from evertgym.sim.material import material_tables
+
+#: Pressure (Pa) below which the solver's force scale stops shrinking (a limp tube).
+_P_SCALE_FLOOR = 1000.0
+#: Extra reach (m) of the wall query beyond the barrier gap: walls a solve can reach.
+_QUERY_MARGIN_M = 0.012
+#: Largest node displacement (m) of one Newton step (keeps the barrier's line search local).
+_MAX_MOVE_M = 0.004
+#: Bisection steps that cut an increment back to the length where the drive balances the wall.
+_BISECTIONS = 7
+#: A pressure change of this fraction (of at least 1 kPa) since the last solve triggers a new one.
+_PRESSURE_RESOLVE_FRACTION = 0.01
+
+
+def _law_table(n: int = 6000, x_max: float = 1e4) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """The joint law past wrinkling in normalised form, ``h(x) = M / M_c`` at ``x = phi / phi_w``
+    (the tension-field law, never below the residual stiffness ``0.005 x``), on a uniform grid of
+    ``ln x``, with its integral ``H(x) = int_1^x h``; and the slope used beyond ``x_max``."""
+    u = np.linspace(0.0, math.log(x_max), n)
+    x = np.exp(u)
+    floor = 0.5 * RESIDUAL_STIFFNESS_FRACTION
+    h = np.maximum(np.asarray(wrinkled_moment_fraction(x), float), floor * x)
+    hi = np.concatenate(([0.0], np.cumsum(0.5 * (h[1:] + h[:-1]) * np.diff(x))))
+    slope = max(1.0 / _END_SLOPE, floor)
+    return u, h, hi, slope
+
+
+_LAW = _law_table()
+
+
+@dataclass
+class _Walls:
+    """Every wall feature of a scene as arrays (SI): its segments, then their distinct end points
+    (``vertex`` true; ``a == b``), for IPC's point-edge pairs.  End points ``a``, ``b`` are world
+    coordinates for static walls and the piece's frame for compliant ones; ``piece`` (-1 static),
+    ``radius`` (of the wall's shape), ``friction``; ``index`` maps a pymunk shape to its features."""
+
+    a: np.ndarray
+    b: np.ndarray
+    piece: np.ndarray
+    vertex: np.ndarray
+    radius: np.ndarray
+    friction: np.ndarray
+    index: dict
+
+
+def _read_walls(handles, piece_index: dict) -> _Walls:
+    segs = [sh for sh in getattr(handles, "shapes", []) if isinstance(sh, pymunk.Segment)]
+    rows: list[tuple] = []  # (ax, ay, bx, by, piece, vertex, radius, friction)
+    index: dict[int, list[int]] = {}
+    vertices: dict[tuple, int] = {}
+    for sh in segs:
+        p = piece_index.get(id(sh.body), -1)
+        index[id(sh)] = [len(rows)]
+        rows.append((sh.a.x, sh.a.y, sh.b.x, sh.b.y, p, False, sh.radius, sh.friction))
+    for sh in segs:
+        p = piece_index.get(id(sh.body), -1)
+        for pt in (sh.a, sh.b):
+            key = (p, round(pt.x, 9), round(pt.y, 9))
+            if key not in vertices:
+                vertices[key] = len(rows)
+                rows.append((pt.x, pt.y, pt.x, pt.y, p, True, sh.radius, sh.friction))
+            index[id(sh)].append(vertices[key])
+    arr = np.array([r[:4] for r in rows], float).reshape(-1, 4)
+    return _Walls(arr[:, :2].copy(), arr[:, 2:].copy(), np.array([r[4] for r in rows], np.int64),
+                  np.array([r[5] for r in rows], np.bool_), np.array([r[6] for r in rows], float),
+                  np.array([r[7] for r in rows], float), index)
+
+
+@dataclass
+class SolveStats:
+    """Counters of the equilibrium solves (reported in ``info`` and trial records)."""
+
+    solves: int = 0
+    failures: int = 0
+    newton_iterations: int = 0
+    max_residual_ratio: float = 0.0
+    rejoined: int = 0
+
+    def to_dict(self) -> dict:
+        return {"solves": self.solves, "solve_failures": self.failures, "newton_iterations": self.newton_iterations,
+                "max_residual_ratio": self.max_residual_ratio, "rejoined_joints": self.rejoined}
+
+
+class QuasiStaticSim:
+    """A growing eversion robot as a sequence of static equilibria (see the module docstring).
+
+    The constructor and the public interface are :class:`~evertgym.sim.simulator.EversionSim`'s
+    (``step``, ``run``, ``set_pressure_command``, ``centreline``, ``tip_position``, ...), so an
+    environment, a trial or a script runs either engine; ``SimConfig(engine=...)`` picks one.
+    """
+
+    engine = "quasistatic"
+
+    def __init__(
+        self,
+        design: TubeDesign,
+        scene=None,
+        config: SimConfig | None = None,
+        base: tuple[float, float] | None = None,
+        direction: tuple[float, float] | None = None,
+        vertical_tail: bool = False,
+        threshold: EversionThreshold | None = None,
+        params: ModelParams | None = None,
+    ):
+        from evertgym.sim.simulator import check_buildable  # the same checks as the dynamic engine
+
+        self.design = design
+        self.cfg = cfg = config or SimConfig()
+        check_buildable(design, cfg, scene)
+        self.params = params or load_params()
+        self.space = pymunk.Space()
+        self.scene = scene
+        self.scene_handles = scene.build(self.space) if scene is not None else None
+        if base is None:
+            base = tuple(getattr(scene, "entry", (0.0, 0.0)))
+        if direction is None:
+            direction = tuple(getattr(scene, "entry_direction", (1.0, 0.0)))
+        d = np.asarray(direction, dtype=float)
+        self.base = np.asarray(base, dtype=float)
+        self.base_angle = math.atan2(d[1], d[0])
+
+        ds = cfg.segment_length_m
+        self.ds = ds
+        tables = material_tables(design, ds, self.params)
+        self.nodes = tables.nodes
+        self._ref_section = tables.section
+        self._e_ref = self._ref_section.e_eff_pa
+        self._c_ref = np.asarray(tables.c_ref)
+        self._r_cell = np.asarray(tables.r_cell)
+        self._r3 = self._r_cell**3
+        self._law = InflatedBeamLaw.for_design(design)
+        self._radius_fine = (tables.radius_s, tables.radius_r)
+        self._band_zones = [(z.start_m - 2 * ds, z.end_m + 2 * ds) for z in self._ref_section.zones]
+        self._band_starts = [(i, b.position_m - b.width_m / 2, b.reduction) for i, b in enumerate(design.bands)]
+
+        self.threshold = threshold or EversionThreshold.calibrated()
+        self._bare_threshold = (float(self.threshold(0.0)), math.pi * design.radius_m * design.radius_m)
+        self.growth = GrowthLaw(self.threshold, cfg.growth_gain_m_per_s_per_pa, cfg.bend_loss_per_rad, cfg.max_growth_speed_m_per_s)
+        self.regulator = PressureRegulator(cfg.regulator_tau_s)
+        self.vertical_tail = vertical_tail
+
+        # walls: arrays for the kernel; the compliant wall's pieces and linear springs
+        handles = self.scene_handles
+        self._piece_bodies: list[pymunk.Body] = list(getattr(handles, "bodies", []) or [])
+        piece_index = {id(b): i for i, b in enumerate(self._piece_bodies)}
+        self._walls = _read_walls(handles, piece_index)
+        net = getattr(handles, "network", None)
+        n_p = len(self._piece_bodies)
+        self._pc0 = np.array([tuple(b.position) for b in self._piece_bodies], float).reshape(-1, 2)
+        self._u_all = np.zeros((n_p, 3))
+        self._k_wall = np.asarray(net.stiffness_matrix()) if net is not None else np.zeros((0, 0))
+        travel = net.mechanics.max_travel_m if net is not None else 0.0
+        self._travel = travel
+        # the tether stop: 100 x the stiffest piece's own springs (a numerical stop, reported)
+        self._k_travel = 100.0 * float(np.max(np.diag(self._k_wall))) if n_p else 0.0
+
+        # the body's state: per segment its joint rotation (joint j against segment j - 1; joint 0
+        # against the clamp), length and collision radius
+        self.phi: list[float] = []
+        self.seg_len: list[float] = []
+        self.seg_rad: list[float] = []
+        self.length = 0.0
+        self._start_chain(cfg.initial_length_m)
+
+        # clock, outputs, events
+        self.t = 0.0
+        self.steps = 0
+        self.events: list[SimEvent] = []
+        self.event_counts: dict[str, int] = {}
+        self._bands_reached: set[int] = set()
+        self._kinked: set[int] = set()
+        self._stall_clock = 0.0
+        self._stalled = False
+        self.stall_count = 0
+        self.growth_speed = 0.0
+        self.tip_force = 0.0
+        self.tip_contact = np.zeros(2)
+        self._tip_force_norm = 0.0
+        self._in_contact = False
+        self.max_contact_force = 0.0
+        self.peak_pressure = 0.0
+        self._step_mean_pressure = 0.0
+        self._step_max_contact = 0.0
+        self._pending = 0.0
+        self._p_solved = -1.0
+        self._stats = SolveStats()
+        self._fric: list[tuple] = []  # lagged friction: (seg, s on it, wall, wall-frame point, tangent, mu lambda, x_r, x_w)
+        self._seg_force = np.zeros((0, 2))  # per segment: sum of wall forces (N), sum of p x f (N m)
+        self._seg_moment = np.zeros(0)
+        self._contact_segs: set[int] = set()
+        self.active_start = 0
+        self._tip_clearance = math.inf
+        self._mw_used = np.zeros(len(self.nodes))
+        # barrier stiffness: 0.1 x the largest drive (8 kPa pi r^2) per barrier gap (N/m)
+        self._kappa = 0.1 * 8000.0 * math.pi * design.radius_m**2 / cfg.barrier_gap_m
+        self._apply_pressure(0.0)
+        self._solve()
+        self._publish()
+
+    # ---- construction -----------------------------------------------------------
+    def _radius_between(self, a: float, b: float) -> float:
+        s, r = self._radius_fine
+        m = (s >= a - 1e-12) & (s <= b + 1e-12)
+        return float(np.max(r[m])) if np.any(m) else float(np.interp(0.5 * (a + b), s, r))
+
+    def _start_chain(self, length: float) -> None:
+        n = max(1, int(math.floor(length / self.ds + 1e-9)))
+        for j in range(n):
+            seg = self.ds if j < n - 1 else length - (n - 1) * self.ds
+            self.phi.append(0.0)
+            self.seg_len.append(seg)
+            self.seg_rad.append(self._radius_between(self.nodes[j], self.nodes[j] + seg))
+        self.length = length
+
+    # ---- the joint law at the applied pressure -----------------------------------
+    def _apply_pressure(self, p: float) -> None:
+        """Joint stiffness (N m/rad) and wrinkling moments (N m) of every node at pressure ``p`` (Pa)."""
+        scale = self._law.effective_modulus(max(p, 0.0)) / self._e_ref
+        self._k_all = scale / self._c_ref
+        self._mw_all = 0.5 * max(p, 0.0) * math.pi * self._r3
+        self._p_applied = p
+
+    def _scales(self) -> tuple[float, float]:
+        """Force (N) and moment (N m) scales of the convergence test: ``p pi r^2`` and ``p pi r^3``."""
+        r = self.design.radius_m
+        f = max(self._p_applied, _P_SCALE_FLOOR) * math.pi * r * r
+        return f, f * r
+
+    # ---- geometry ------------------------------------------------------------------
+    def _all_nodes(self) -> tuple[np.ndarray, np.ndarray]:
+        return qk.chain_nodes(self.base_angle, self.base, np.asarray(self.phi), np.asarray(self.seg_len))
+
+    def centreline(self) -> np.ndarray:
+        """Node positions from the base to the tip (m), (n+1) x 2."""
+        return self._all_nodes()[0]
+
+    def radii(self) -> np.ndarray:
+        """Collision radius of each segment (m)."""
+        return np.asarray(self.seg_rad)
+
+    @property
+    def tip_position(self) -> np.ndarray:
+        return self._all_nodes()[0][-1].copy()
+
+    @property
+    def tip_angle(self) -> float:
+        """Heading of the tip segment (rad)."""
+        return self.base_angle + float(np.sum(self.phi))
+
+    @property
+    def tip_direction(self) -> np.ndarray:
+        a = self.tip_angle
+        return np.array([math.cos(a), math.sin(a)])
+
+    def joint_angles(self, start: int = 0) -> np.ndarray:
+        return np.asarray(self.phi[start:])
+
+    def joint_moments(self, start: int = 0) -> np.ndarray:
+        """Joint moments (N m) of joints ``start..`` from the law at the current angles."""
+        n = len(self.phi)
+        return qk.joint_moments(np.asarray(self.phi[start:], float), self._k_all[start:n], self._mw_all[start:n], *_LAW[:3], _LAW[3],
+                                RESIDUAL_STIFFNESS_FRACTION)
+
+    def collapse_moments(self, start: int = 0) -> np.ndarray:
+        return 2.0 * self._mw_all[start : len(self.phi)]
+
+    @property
+    def kinked_joints(self) -> list[int]:
+        return sorted(self._kinked)
+
+    @property
+    def wall_tension(self) -> np.ndarray:
+        """``p pi r^2`` (N) of the joints from ``active_start`` (this engine's moments assume no axial load)."""
+        return max(self._p_applied, 0.0) * math.pi * self._r_cell[self.active_start : len(self.phi)] ** 2
+
+    @property
+    def compression_capacity(self) -> np.ndarray:
+        return np.full(len(self.phi) - self.active_start, math.inf)
+
+    @property
+    def tip_capacity(self) -> float:
+        return math.inf
+
+    def segments_in_contact(self) -> list[int]:
+        """Segments that touch a wall (a gap within the barrier's reach) at the last solve."""
+        return sorted(self._contact_segs)
+
+    @property
+    def solve_stats(self) -> dict:
+        """Counts of the equilibrium solves: ``solves``, ``solve_failures`` (ended above the
+        tolerance), ``newton_iterations``, ``max_residual_ratio`` (largest final residual over the
+        tolerance's scale), ``rejoined_joints``."""
+        return self._stats.to_dict()
+
+    # ---- pressure, growth, clock -----------------------------------------------------
+    def set_pressure_command(self, pressure_pa: float) -> float:
+        return self.regulator.set_command(pressure_pa)
+
+    @property
+    def pressure(self) -> float:
+        return self.regulator.pressure
+
+    def _tip_threshold(self) -> tuple[float, float]:
+        s_tip = self.length
+        rho = 0.0
+        for z in self._ref_section.zones:
+            if z.start_m <= s_tip <= z.end_m:
+                rho = max(rho, z.reduction * float(z.shape(s_tip)))
+        if rho == 0.0:
+            return self._bare_threshold
+        r_tip = self.design.radius_m * (1 - rho)
+        return float(self.threshold(rho)), math.pi * r_tip * r_tip
+
+    def _turning(self) -> float:
+        return float(np.sum(np.abs(self.phi)))
+
+    def _required(self, tip_force: float) -> float:
+        p_y, area = self._tip_threshold()
+        tail = tail_weight_pressure(self.design.diameter_m, self.design.wall_thickness_m, self.length) if self.vertical_tail else 0.0
+        return self.growth.required_pressure(p_y, tip_force, area, self._turning(), tail, None)
+
+    def required_pressure(self) -> float:
+        """Pressure (Pa) the tip needs to grow now (threshold, bend loss, the wall's reaction)."""
+        return self._required(self.tip_force)
+
+    def step(self, n_steps: int = 1) -> None:
+        """Advance the clock by ``n_steps`` steps of ``cfg.dt_s``: the regulator and the growth law
+        advance every step; the body is re-solved whenever the tip has grown by the increment or
+        the pressure has moved by 1% since the last solve."""
+        cfg = self.cfg
+        dt = cfg.dt_s
+        p_sum, f_max = 0.0, 0.0
+        for _ in range(n_steps):
+            p = self.regulator.advance(dt)
+            p_sum += p
+            self.peak_pressure = max(self.peak_pressure, p)
+            v = 0.0
+            if self.length < self.design.length_m:
+                v = self.growth.speed(p, self._required(self.tip_force))
+            self._pending = min(self._pending + v * dt, self.design.length_m - self.length)
+            moved = abs(p - self._p_solved) > _PRESSURE_RESOLVE_FRACTION * max(self._p_solved, _P_SCALE_FLOOR)
+            if self._pending >= self._increment() or (moved and (self._contact_segs or self._pending > 0)) or (
+                    self._pending > 0 and self.length + self._pending >= self.design.length_m - 1e-12):
+                self._advance(p)
+            elif moved:
+                self._apply_pressure(p)
+                self._p_solved = p
+            self.t += dt
+            self.steps += 1
+            self.growth_speed = v
+            self._stall_update(v, dt)
+            f_max = max(f_max, self._tip_force_norm)
+        self._step_mean_pressure = p_sum / n_steps if n_steps > 0 else self.pressure
+        self._step_max_contact = f_max
+
+    def run(self, duration_s: float) -> None:
+        self.step(int(round(duration_s / self.cfg.dt_s)))
+
+    def _increment(self) -> float:
+        """Growth increment (m): ``growth_increment_m`` near a wall, up to a segment in free space
+        (no wall within a segment of the tip)."""
+        inc = self.cfg.growth_increment_m
+        if self._tip_clearance > self.ds + self.cfg.barrier_gap_m:
+            return max(inc, min(self.ds, 0.5 * (self._tip_clearance - self.cfg.barrier_gap_m)))
+        return inc
+
+    # ---- one growth increment ----------------------------------------------------------
+    def _snapshot(self) -> tuple:
+        return (list(self.phi), list(self.seg_len), list(self.seg_rad), self.length, self._u_all.copy(), list(self._fric),
+                self._seg_force.copy(), self._seg_moment.copy(), set(self._contact_segs), self.tip_force, self.tip_contact.copy(),
+                self._tip_clearance, self.active_start, self._mw_used.copy())
+
+    def _restore(self, snap: tuple) -> None:
+        (phi, seg_len, seg_rad, self.length, u, fric, seg_force, seg_moment, contact_segs, self.tip_force,
+         tip_contact, self._tip_clearance, self.active_start, mw_used) = snap
+        self.phi, self.seg_len, self.seg_rad, self._fric = list(phi), list(seg_len), list(seg_rad), list(fric)
+        self._u_all = u.copy()
+        self._seg_force, self._seg_moment, self._contact_segs = seg_force.copy(), seg_moment.copy(), set(contact_segs)
+        self.tip_contact = tip_contact.copy()
+        self._mw_used = mw_used.copy()
+
+    def _advance(self, p: float) -> None:
+        """Grow by the pending length at pressure ``p`` and solve; if the wall's reaction at the
+        full increment asks more pressure than ``p``, cut the growth back by bisection to the length
+        where the two meet (a stall's position does not depend on the increment)."""
+        self._apply_pressure(p)
+        self._p_solved = p
+        dl = self._pending
+        self._pending = 0.0
+        if dl <= 0:
+            self._solve()
+            self._publish()
+            return
+        start = self._snapshot()
+        if self._grow(dl) and self._solve() and self._required(self.tip_force) <= p * (1 + 1e-9):
+            self._publish()
+            return
+        lo, hi, best = 0.0, dl, None
+        for _ in range(_BISECTIONS):
+            mid = 0.5 * (lo + hi)
+            self._restore(start)
+            if self._grow(mid) and self._solve() and self._required(self.tip_force) <= p * (1 + 1e-9):
+                lo, best = mid, self._snapshot()
+            else:
+                hi = mid
+        if best is None:
+            self._restore(start)
+            self._solve()
+        else:
+            self._restore(best)
+        self._publish()
+
+    def _grow(self, dl: float) -> bool:
+        """Lengthen the tip segment by ``dl`` (m), splitting it past two segments; the tip's radius
+        follows its newest material, widening at most halfway into its clearance.  False if the
+        grown tip would overlap a wall."""
+        ds = self.ds
+        self.length = min(self.length + dl, self.design.length_m)
+        j = len(self.seg_len) - 1
+        seg = self.length - self.nodes[j]
+        if seg >= 2 * ds - 1e-12 and j + 1 < len(self.nodes):
+            self.seg_len[j] = ds
+            self.seg_rad[j] = min(self._radius_between(self.nodes[j], self.nodes[j] + ds), self.seg_rad[j])
+            self.phi.append(0.0)
+            self.seg_len.append(seg - ds)
+            self.seg_rad.append(self.seg_rad[j])
+            self._seg_force = np.vstack([self._seg_force, np.zeros((1, 2))])
+            self._seg_moment = np.append(self._seg_moment, 0.0)
+            j += 1
+        else:
+            self.seg_len[j] = seg
+        target = self._radius_between(max(self.nodes[j], self.length - ds), self.length)
+        if target > self.seg_rad[j]:
+            gap = self._segment_gap(j)
+            self.seg_rad[j] = min(target, self.seg_rad[j] + max(0.0, 0.5 * gap) if math.isfinite(gap) else target)
+        else:
+            self.seg_rad[j] = target
+        return self._segment_gap(j) > 0.0
+
+    def _publish(self) -> None:
+        """Outputs and events after an accepted state."""
+        mag = float(math.hypot(*self.tip_contact))
+        self._tip_force_norm = mag
+        self.max_contact_force = max(self.max_contact_force, mag)
+        touching = (len(self.seg_len) - 1) in self._contact_segs
+        if touching and not self._in_contact:
+            self._event("contact", force_n=round(mag, 6))
+        self._in_contact = touching
+        for i, start, reduction in self._band_starts:
+            if self.length >= start and i not in self._bands_reached:
+                self._bands_reached.add(i)
+                self._event("band_at_tip", band=i, reduction=reduction)
+        moments = self.joint_moments()
+        mc = 2.0 * self._mw_used[: len(moments)]
+        kinked = np.nonzero(np.abs(moments) >= KINK_MOMENT_FRACTION * mc)[0] if np.any(mc > 0) else ()
+        for j in kinked:
+            if int(j) not in self._kinked:
+                self._kinked.add(int(j))
+                self._event("kink", joint_mm=round(float(self.nodes[j]) * 1e3, 3), at_band=bool(self._r3[j] < 0.999 * self.design.radius_m**3))
+        if self._kinked:
+            self._kinked = {j for j in self._kinked if abs(moments[j]) >= 0.8 * KINK_MOMENT_FRACTION * mc[j]}
+
+    # ---- geometry queries ---------------------------------------------------------------------
+    def _query_walls(self, pts: np.ndarray, reach: float) -> np.ndarray:
+        """Indices of the wall segments whose shapes' boxes come within ``reach`` (m) of ``pts``."""
+        if not len(self._walls.a):
+            return np.zeros(0, np.int64)
+        lo = pts.min(axis=0) - reach
+        hi = pts.max(axis=0) + reach
+        shapes = self.space.bb_query(pymunk.BB(float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])), pymunk.ShapeFilter())
+        idx = self._walls.index
+        return np.array(sorted({f for s in shapes if id(s) in idx for f in idx[id(s)]}), np.int64)
+
+    def _wall_world(self, w: int) -> tuple[np.ndarray, np.ndarray]:
+        a, b = self._walls.a[w], self._walls.b[w]
+        pc = self._walls.piece[w]
+        if pc < 0:
+            return a, b
+        u = self._u_all[pc]
+        c, s = math.cos(u[2]), math.sin(u[2])
+        o = self._pc0[pc] + u[:2]
+        return o + np.array([c * a[0] - s * a[1], s * a[0] + c * a[1]]), o + np.array([c * b[0] - s * b[1], s * b[0] + c * b[1]])
+
+    def _segment_gap(self, k: int) -> float:
+        """Smallest gap (m) between segment ``k`` and a wall within a segment's length of it."""
+        nodes, _ = self._all_nodes()
+        sel = self._query_walls(nodes[k:k + 2], self.seg_rad[k] + self.ds)
+        best = math.inf
+        for w in sel:
+            if self._walls.vertex[w]:
+                continue
+            a, b = self._wall_world(int(w))
+            d = qk._closest(nodes[k, 0], nodes[k, 1], nodes[k + 1, 0], nodes[k + 1, 1], a[0], a[1], b[0], b[1])[6]
+            best = min(best, d - self.seg_rad[k] - self._walls.radius[w])
+        return best
+
+    # ---- the equilibrium solve ------------------------------------------------------------
+    def _window_start(self) -> int:
+        n = len(self.phi)
+        return max(0, n - max(2, int(math.ceil(self.cfg.active_length_m / self.ds))))
+
+    def _solve(self) -> bool:
+        """Put the window, and any held joint out of balance, in equilibrium; False if the
+        configuration overlaps a wall (the increment is then cut back).  Counts every solve."""
+        f_ref, m_ref = self._scales()
+        tol_m, tol_f = self.cfg.solver_tolerance * m_ref, self.cfg.solver_tolerance * f_ref
+        a = self._window_start()
+        for _ in range(6):  # a held joint out of balance widens the window
+            if not self._solve_window(a, tol_m, tol_f):
+                return False
+            worst = self._held_imbalance(a, tol_m)
+            if worst is None:
+                break
+            self._stats.rejoined += a - worst
+            a = worst
+        self.active_start = a
+        return True
+
+    def _held_imbalance(self, a: int, tol_m: float) -> int | None:
+        """The most proximal held joint (< ``a``) whose moment differs from the moment of the wall
+        forces distal to it by more than ``tol_m``; None if all balance."""
+        if a == 0:
+            return None
+        nodes, _ = self._all_nodes()
+        sf = np.cumsum(self._seg_force[::-1], axis=0)[::-1]
+        sm = np.cumsum(self._seg_moment[::-1])[::-1]
+        ext = sm[:a] - (nodes[:a, 0] * sf[:a, 1] - nodes[:a, 1] * sf[:a, 0])
+        own = qk.joint_moments(np.asarray(self.phi[:a]), self._k_all[:a], self._mw_used[:a], *_LAW[:3], _LAW[3],
+                               RESIDUAL_STIFFNESS_FRACTION)
+        bad = np.nonzero(np.abs(own - ext) > tol_m)[0]
+        return int(bad[0]) if len(bad) else None
+
+    def _solve_window(self, a: int, tol_m: float, tol_f: float) -> bool:
+        cfg = self.cfg
+        nodes, theta = self._all_nodes()
+        theta0 = self.base_angle if a == 0 else float(theta[a - 1])
+        n0 = nodes[a].copy()
+        phi = np.asarray(self.phi[a:], float)
+        seg_len = np.asarray(self.seg_len[a:], float)
+        seg_rad = np.asarray(self.seg_rad[a:], float)
+        m = len(phi)
+        k_j = self._k_all[a : a + m].copy()
+        mw_j = self._mw_all[a : a + m].copy()
+        sel = self._query_walls(nodes[a:], float(np.max(seg_rad)) + cfg.barrier_gap_m + _QUERY_MARGIN_M)
+        walls = self._walls
+        wa, wb, wrad, wvert = walls.a[sel], walls.b[sel], walls.radius[sel], walls.vertex[sel]
+        wpiece_g = walls.piece[sel]
+        pieces = np.unique(wpiece_g[wpiece_g >= 0])
+        local = {int(p): i for i, p in enumerate(pieces)}
+        wpiece = np.array([local.get(int(p), -1) for p in wpiece_g], np.int64)
+        pc0 = self._pc0[pieces].copy() if len(pieces) else np.zeros((0, 2))
+        u = self._u_all[pieces].copy() if len(pieces) else np.zeros((0, 3))
+        if len(pieces):
+            dof = (3 * pieces[:, None] + np.arange(3)[None, :]).ravel()
+            held = np.setdiff1d(np.arange(self._k_wall.shape[0]), dof)
+            kaa = np.ascontiguousarray(self._k_wall[np.ix_(dof, dof)])
+            fh = self._k_wall[np.ix_(dof, held)] @ self._u_all.ravel()[held] if len(held) else np.zeros(len(dof))
+            travel = np.full(len(pieces), self._travel)
+            k_travel = np.full(len(pieces), self._k_travel)
+        else:
+            kaa, fh, travel, k_travel = np.zeros((0, 0)), np.zeros(0), np.zeros(0), np.zeros(0)
+        kappa = self._kappa
+        sel_pos = {int(w): i for i, w in enumerate(sel)}
+        robot_mu = np.full(m, cfg.wall_friction)
+        robot_mu[-1] = cfg.tip_friction
+        fric = [e for e in self._fric if self._entry_segment(e, a) is not None and e[1] in sel_pos]
+        status, res_m, res_f = qk.CONVERGED, 0.0, 0.0
+        rows = np.zeros((0, 11))
+        start_nodes = nodes[a:].copy()  # the configuration before this solve: friction resists slip from it
+        u0 = u.copy()
+        for lag in range(cfg.friction_lag_iterations + 1):
+            fr = self._friction_arrays(fric, a, sel_pos, start_nodes, seg_len, wpiece, pc0, u0)
+            status, iters, res_m, res_f = qk.solve(
+                theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, *_LAW[:3], _LAW[3], RESIDUAL_STIFFNESS_FRACTION,
+                wa, wb, wpiece, wvert, wrad, pc0, u, kaa, fh, travel, k_travel, *fr,
+                cfg.barrier_gap_m, kappa, cfg.friction_slip_m, tol_m, tol_f, cfg.max_newton_iterations, _MAX_MOVE_M)
+            self._stats.newton_iterations += iters
+            if status == qk.INFEASIBLE_START:
+                return False
+            rows = qk.contacts(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, cfg.barrier_gap_m, 0.0)
+            new = self._lagged_entries(rows, a, sel, wpiece, pc0, u, seg_len, robot_mu)
+            done = self._lag_converged(fric, new, tol_f)
+            fric = new
+            if done or lag == cfg.friction_lag_iterations:
+                break
+        self._stats.solves += 1
+        ratio = max(res_m / tol_m, res_f / tol_f) * cfg.solver_tolerance  # largest residual over p pi r^2 (r^3)
+        self._stats.max_residual_ratio = max(self._stats.max_residual_ratio, ratio)
+        if status != qk.CONVERGED:
+            self._stats.failures += 1
+            if self._stats.failures <= 1 or status == qk.LINE_SEARCH_FAILED:
+                self._event("solve_failed", status=int(status), residual=round(ratio, 6))
+        # commit the window
+        self.phi[a:] = phi.tolist()
+        if len(pieces):
+            self._u_all[pieces] = u
+            for p_, uu in zip(pieces, u):
+                body = self._piece_bodies[int(p_)]
+                body.position = tuple(self._pc0[p_] + uu[:2])
+                body.angle = float(uu[2])
+                self.space.reindex_shapes_for_body(body)
+        self._fric = [e for e in self._fric if self._entry_segment(e, a) is None] + fric
+        fr = self._friction_arrays(fric, a, sel_pos, start_nodes, seg_len, wpiece, pc0, u0)
+        acc_f, acc_m, tip = qk.segment_forces(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, *fr,
+                                              cfg.barrier_gap_m, kappa, cfg.friction_slip_m)
+        n = len(self.phi)
+        if len(self._seg_force) != n:
+            self._seg_force = np.vstack([self._seg_force, np.zeros((n - len(self._seg_force), 2))])[:n]
+            self._seg_moment = np.concatenate([self._seg_moment, np.zeros(n - len(self._seg_moment))])[:n]
+        self._seg_force[a:] = acc_f
+        self._seg_moment[a:] = acc_m
+        self._mw_used[a : a + m] = mw_j
+        self._contact_segs = {s for s in self._contact_segs if s < a} | {a + int(k) for k in rows[:, 0]}
+        self.tip_force = max(0.0, float(tip[0]))
+        self.tip_contact = np.array([tip[1], tip[2]])
+        tip_rows = rows[rows[:, 0] == m - 1]
+        self._tip_clearance = float(np.min(tip_rows[:, 10])) if len(tip_rows) else self._segment_gap(n - 1)
+        return True
+
+    # ---- lagged friction ------------------------------------------------------------------
+    # An entry is (s, wall, wall-frame point x, y, tangent x, y, mu lambda): ``s`` the robot point's
+    # material coordinate (m), or -1 for the tip's cap, which is always the newest material.
+    def _entry_segment(self, entry: tuple, a: int) -> tuple[int, float] | None:
+        """Window segment (from ``a``) and parameter of an entry's robot point; None if held."""
+        n = len(self.seg_len)
+        smat = entry[0]
+        if smat < 0:
+            j, s = n - 1, 1.0
+        else:
+            j = min(int(smat / self.ds + 1e-9), n - 1)
+            s = min(max((smat - self.nodes[j]) / self.seg_len[j], 0.0), 1.0)
+        return None if j < a else (j - a, s)
+
+    def _friction_arrays(self, fric: list, a: int, sel_pos: dict, start_nodes: np.ndarray, seg_len: np.ndarray,
+                         wpiece: np.ndarray, pc0: np.ndarray, u0: np.ndarray) -> tuple:
+        """The kernel's friction arrays; the slip is measured from ``start_nodes`` and ``u0``."""
+        nf = len(fric)
+        fr_k = np.zeros(nf, np.int64)
+        fr_s = np.zeros(nf)
+        fr_w = np.zeros(nf, np.int64)
+        fr_wl = np.zeros((nf, 2))
+        fr_t = np.zeros((nf, 2))
+        fr_ml = np.zeros(nf)
+        fr_xr0 = np.zeros((nf, 2))
+        fr_xw0 = np.zeros((nf, 2))
+        for i, e in enumerate(fric):
+            seg = self._entry_segment(e, a)
+            assert seg is not None
+            k, s = seg
+            fr_k[i], fr_s[i] = k, s
+            w = sel_pos[e[1]]
+            fr_w[i] = w
+            fr_wl[i] = e[2], e[3]
+            fr_t[i] = e[4], e[5]
+            fr_ml[i] = e[6]
+            fr_xr0[i] = start_nodes[k] * (1 - s) + start_nodes[k + 1] * s
+            fr_xw0[i] = qk._wall_point(w, e[2], e[3], wpiece, pc0, u0)
+        return fr_k, fr_s, fr_w, fr_wl, fr_t, fr_ml, fr_xr0, fr_xw0
+
+    def _lagged_entries(self, rows: np.ndarray, a: int, sel: np.ndarray, wpiece: np.ndarray, pc0: np.ndarray, u: np.ndarray,
+                        seg_len: np.ndarray, robot_mu: np.ndarray) -> list:
+        """Friction entries of the contacts ``rows`` (:func:`~evertgym.sim.qs_kernel.contacts`): the
+        barrier's normal force times ``mu`` (robot x wall, as pymunk combines them), the tangent."""
+        dhat = self.cfg.barrier_gap_m
+        out = []
+        m = len(seg_len)
+        for k, w, s, _, _, _, qx, qy, nx, ny, gap in rows:
+            k, w = int(k), int(w)
+            r = gap - dhat
+            lam = self._kappa * (2.0 * r * math.log(gap / dhat) + r * r / gap)
+            mu = robot_mu[k] * self._walls.friction[sel[w]]
+            if lam <= 0 or mu <= 0:
+                continue
+            smat = -1.0 if (k == m - 1 and s > 0.999) else float(self.nodes[a + k] + s * seg_len[k])
+            p = wpiece[w]
+            if p >= 0:
+                c, sn = math.cos(u[p, 2]), math.sin(u[p, 2])
+                dx, dy = qx - pc0[p, 0] - u[p, 0], qy - pc0[p, 1] - u[p, 1]
+                qx, qy = c * dx + sn * dy, -sn * dx + c * dy
+            out.append((smat, int(sel[w]), float(qx), float(qy), -float(ny), float(nx), mu * lam))
+        return out
+
+    @staticmethod
+    def _lag_converged(old: list, new: list, tol_f: float) -> bool:
+        """Whether the lagged normal forces stopped changing (same contacts, within ``tol_f``)."""
+        if len(old) != len(new):
+            return False
+        before = {(round(e[0], 6), e[1]): e[6] for e in old}
+        for e in new:
+            prev = before.get((round(e[0], 6), e[1]))
+            if prev is None or abs(prev - e[6]) > tol_f:
+                return False
+        return True
+
+    # ---- events, stalls ---------------------------------------------------------------------
+    def _stall_update(self, v: float, dt: float) -> None:
+        if v < self.cfg.stall_speed_m_per_s and self.length < self.design.length_m:
+            self._stall_clock += dt
+            if self._stall_clock >= self.cfg.stall_time_s and not self._stalled:
+                self._stalled = True
+                self.stall_count += 1
+                self._event("stall", pressure_kpa=round(self.pressure / 1e3, 4))
+        else:
+            self._stall_clock = 0.0
+            self._stalled = False
+
+    @property
+    def stalled(self) -> bool:
+        return self._stalled
+
+    @property
+    def at_rest(self) -> bool:
+        """Always true between steps: every state this engine shows is an equilibrium."""
+        return True
+
+    @property
+    def step_mean_pressure(self) -> float:
+        return self._step_mean_pressure
+
+    @property
+    def step_max_contact_force(self) -> float:
+        return self._step_max_contact
+
+    @property
+    def in_contact(self) -> bool:
+        return self._in_contact
+
+    def _event(self, kind: str, **detail) -> None:
+        self.event_counts[kind] = self.event_counts.get(kind, 0) + 1
+        if len(self.events) < MAX_EVENTS:
+            self.events.append(SimEvent(round(self.t, 6), kind, round(self.length * 1e3, 3), detail))
