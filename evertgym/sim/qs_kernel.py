@@ -241,8 +241,19 @@ def contacts(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0
 
 
 @nb.njit(**_JIT)
+def _pair_list(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, dhat, margin):
+    """``(k, w)`` of every robot-wall pair within ``dhat + margin`` (the candidates of a solve)."""
+    rows = contacts(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, dhat, margin)
+    out = np.empty((rows.shape[0], 2), np.int64)
+    for i in range(rows.shape[0]):
+        out[i, 0] = int(rows[i, 0])
+        out[i, 1] = int(rows[i, 1])
+    return out
+
+
+@nb.njit(**_JIT)
 def energy(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
-           wa, wb, wpiece, wvert, wrad, pc0, u, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0, fr_xw0,
+           wa, wb, wpiece, wvert, wrad, pc0, u, pairs, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0, fr_xw0,
            dhat, kappa, eps_v):
     """The incremental potential (J); ``inf`` where any robot-wall gap is not positive."""
     m = phi.shape[0]
@@ -251,26 +262,16 @@ def energy(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, l
         w_, _, _ = joint_law(phi[j], k_j[j], mw_j[j], law_u, law_h, law_hi, law_slope, residual)
         e += w_
     nodes, theta = chain_nodes(theta0, n0, phi, seg_len)
-    nw = wa.shape[0]
-    for k in range(m):
-        ax = nodes[k, 0]
-        ay = nodes[k, 1]
-        bx = nodes[k + 1, 0]
-        by = nodes[k + 1, 1]
-        mx = 0.5 * (ax + bx)
-        my = 0.5 * (ay + by)
-        half = 0.5 * seg_len[k]
-        for w in range(nw):
-            cx, cy, dx, dy = wall_world(w, wa, wb, wpiece, pc0, u)
-            reach = half + 0.5 * math.sqrt((dx - cx) ** 2 + (dy - cy) ** 2) + seg_rad[k] + wrad[w] + dhat
-            if (0.5 * (cx + dx) - mx) ** 2 + (0.5 * (cy + dy) - my) ** 2 > reach * reach:
-                continue
-            s, px, py, qx, qy, dist = _pair(ax, ay, bx, by, cx, cy, dx, dy, wvert[w])
-            gap = dist - seg_rad[k] - wrad[w]
-            if gap <= 0.0:
-                return np.inf
-            b, _, _ = _barrier(gap, dhat)
-            e += kappa * b
+    for c in range(pairs.shape[0]):
+        k = pairs[c, 0]
+        w = pairs[c, 1]
+        cx, cy, dx, dy = wall_world(w, wa, wb, wpiece, pc0, u)
+        s, px, py, qx, qy, dist = _pair(nodes[k, 0], nodes[k, 1], nodes[k + 1, 0], nodes[k + 1, 1], cx, cy, dx, dy, wvert[w])
+        gap = dist - seg_rad[k] - wrad[w]
+        if gap <= 0.0:
+            return np.inf
+        b, _, _ = _barrier(gap, dhat)
+        e += kappa * b
     # lagged friction
     for c in range(fr_k.shape[0]):
         k = fr_k[c]
@@ -316,39 +317,53 @@ def _add_point_force(k, px, py, fx, fy, acc_f, acc_m, acc_fx):
 
 
 @nb.njit(**_JIT)
-def _rank1(hess, m, k, px, py, nodes, dirx, diry, piece, pc_x, pc_y, wx, wy, coef):
-    """``hess += coef g g^T`` for the gradient ``g`` of ``dir . (p - q)``: robot joints ``j <= k``
-    (``(p - n_j) x dir``) and, if ``piece >= 0``, the piece's dofs (``-dir``, ``-(q - c) x dir``)."""
-    g = np.zeros(m + 3)
+def _rank1(hess, smat, m, k, px, py, nodes, dirx, diry, piece, pc_x, pc_y, wx, wy, coef):
+    """Add ``coef g g^T`` for the gradient ``g`` of ``dir . (p - q)``.  Its robot part,
+    ``g_j = (p - n_j) x dir = v . w_j`` for the joints ``j <= k`` with ``v = (p x dir, dir_y, dir_x)``
+    and ``w_j = (1, -n_jx, n_jy)``, goes into the 3 x 3 sums ``smat[k]`` (summed from the tip and
+    expanded by :func:`grad_hess` in O(m^2)); a wall piece's part (``-dir``, ``-(q - c) x dir``) and
+    its coupling to the joints go into ``hess`` directly."""
+    v0 = px * diry - py * dirx
+    v1 = diry
+    v2 = dirx
+    smat[k, 0, 0] += coef * v0 * v0
+    smat[k, 0, 1] += coef * v0 * v1
+    smat[k, 0, 2] += coef * v0 * v2
+    smat[k, 1, 1] += coef * v1 * v1
+    smat[k, 1, 2] += coef * v1 * v2
+    smat[k, 2, 2] += coef * v2 * v2
+    smat[k, 1, 0] = smat[k, 0, 1]
+    smat[k, 2, 0] = smat[k, 0, 2]
+    smat[k, 2, 1] = smat[k, 1, 2]
+    if piece < 0:
+        return
+    gp0 = -dirx
+    gp1 = -diry
+    gp2 = -((wx - pc_x) * diry - (wy - pc_y) * dirx)
+    o = m + 3 * piece
     for j in range(k + 1):
-        g[j] = (px - nodes[j, 0]) * diry - (py - nodes[j, 1]) * dirx
-    kmax = k + 1
-    if piece >= 0:
-        g[m] = -dirx
-        g[m + 1] = -diry
-        g[m + 2] = -((wx - pc_x) * diry - (wy - pc_y) * dirx)
-    idx = np.empty(kmax + 3, dtype=np.int64)
-    for j in range(kmax):
-        idx[j] = j
-    nidx = kmax
-    if piece >= 0:
-        base = m + 3 * piece
-        idx[nidx] = base
-        idx[nidx + 1] = base + 1
-        idx[nidx + 2] = base + 2
-        nidx += 3
-    for a in range(nidx):
-        ga = g[a] if a < kmax else g[m + a - kmax]
-        if ga == 0.0:
-            continue
-        for b in range(nidx):
-            gb = g[b] if b < kmax else g[m + b - kmax]
-            hess[idx[a], idx[b]] += coef * ga * gb
+        gj = v0 - nodes[j, 0] * v1 + nodes[j, 1] * v2
+        c = coef * gj
+        hess[j, o] += c * gp0
+        hess[j, o + 1] += c * gp1
+        hess[j, o + 2] += c * gp2
+        hess[o, j] += c * gp0
+        hess[o + 1, j] += c * gp1
+        hess[o + 2, j] += c * gp2
+    hess[o, o] += coef * gp0 * gp0
+    hess[o, o + 1] += coef * gp0 * gp1
+    hess[o, o + 2] += coef * gp0 * gp2
+    hess[o + 1, o] += coef * gp1 * gp0
+    hess[o + 1, o + 1] += coef * gp1 * gp1
+    hess[o + 1, o + 2] += coef * gp1 * gp2
+    hess[o + 2, o] += coef * gp2 * gp0
+    hess[o + 2, o + 1] += coef * gp2 * gp1
+    hess[o + 2, o + 2] += coef * gp2 * gp2
 
 
 @nb.njit(**_JIT)
-def _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0, fr_xw0,
-                   dhat, kappa, eps_v, grad, hess, want_hess):
+def _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, pairs, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0, fr_xw0,
+                   dhat, kappa, eps_v, grad, hess, smat, want_hess):
     """Barrier and lagged-friction forces of the window: per segment the sums of the force on the
     robot ``f`` (N), of ``p x f`` (N m) and of ``f . p`` (N m); the wall pieces' generalised forces
     go into ``grad[m:]``, the rank-one Hessian terms into ``hess`` (if ``want_hess``).  Also the
@@ -360,43 +375,33 @@ def _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0,
     ex = (nodes[m, 0] - nodes[m - 1, 0]) / seg_len[m - 1]
     ey = (nodes[m, 1] - nodes[m - 1, 1]) / seg_len[m - 1]
     tip = np.zeros(3)
-    nw = wa.shape[0]
-    for k in range(m):
-        ax = nodes[k, 0]
-        ay = nodes[k, 1]
-        bx = nodes[k + 1, 0]
-        by = nodes[k + 1, 1]
-        mx = 0.5 * (ax + bx)
-        my = 0.5 * (ay + by)
-        half = 0.5 * seg_len[k]
-        for w in range(nw):
-            cx, cy, dx, dy = wall_world(w, wa, wb, wpiece, pc0, u)
-            reach = half + 0.5 * math.sqrt((dx - cx) ** 2 + (dy - cy) ** 2) + seg_rad[k] + wrad[w] + dhat
-            if (0.5 * (cx + dx) - mx) ** 2 + (0.5 * (cy + dy) - my) ** 2 > reach * reach:
-                continue
-            s, px, py, qx, qy, dist = _pair(ax, ay, bx, by, cx, cy, dx, dy, wvert[w])
-            gap = dist - seg_rad[k] - wrad[w]
-            if gap >= dhat or gap <= 0.0:
-                continue
-            _, b1, b2 = _barrier(gap, dhat)
-            nx = (px - qx) / dist
-            ny = (py - qy) / dist
-            fmag = -kappa * b1  # > 0: pushes the robot away from the wall
-            _add_point_force(k, px, py, fmag * nx, fmag * ny, acc_f, acc_m, acc_fx)
-            if k == m - 1:
-                tip[0] -= s * fmag * (nx * ex + ny * ey)
-                tip[1] += fmag * nx
-                tip[2] += fmag * ny
-            p = wpiece[w]
-            ccx = pc0[p, 0] + u[p, 0] if p >= 0 else 0.0
-            ccy = pc0[p, 1] + u[p, 1] if p >= 0 else 0.0
-            if p >= 0:  # the wall piece feels the opposite force at q
-                o = m + 3 * p
-                grad[o] += fmag * nx
-                grad[o + 1] += fmag * ny
-                grad[o + 2] += (qx - ccx) * fmag * ny - (qy - ccy) * fmag * nx
-            if want_hess:
-                _rank1(hess, m, k, px, py, nodes, nx, ny, p, ccx, ccy, qx, qy, kappa * b2)
+    for c in range(pairs.shape[0]):
+        k = pairs[c, 0]
+        w = pairs[c, 1]
+        cx, cy, dx, dy = wall_world(w, wa, wb, wpiece, pc0, u)
+        s, px, py, qx, qy, dist = _pair(nodes[k, 0], nodes[k, 1], nodes[k + 1, 0], nodes[k + 1, 1], cx, cy, dx, dy, wvert[w])
+        gap = dist - seg_rad[k] - wrad[w]
+        if gap >= dhat or gap <= 0.0:
+            continue
+        _, b1, b2 = _barrier(gap, dhat)
+        nx = (px - qx) / dist
+        ny = (py - qy) / dist
+        fmag = -kappa * b1  # > 0: pushes the robot away from the wall
+        _add_point_force(k, px, py, fmag * nx, fmag * ny, acc_f, acc_m, acc_fx)
+        if k == m - 1:
+            tip[0] -= s * fmag * (nx * ex + ny * ey)
+            tip[1] += fmag * nx
+            tip[2] += fmag * ny
+        p = wpiece[w]
+        ccx = pc0[p, 0] + u[p, 0] if p >= 0 else 0.0
+        ccy = pc0[p, 1] + u[p, 1] if p >= 0 else 0.0
+        if p >= 0:  # the wall piece feels the opposite force at q
+            o = m + 3 * p
+            grad[o] += fmag * nx
+            grad[o + 1] += fmag * ny
+            grad[o + 2] += (qx - ccx) * fmag * ny - (qy - ccy) * fmag * nx
+        if want_hess:
+            _rank1(hess, smat, m, k, px, py, nodes, nx, ny, p, ccx, ccy, qx, qy, kappa * b2)
     for c in range(fr_k.shape[0]):
         k = fr_k[c]
         s = fr_s[c]
@@ -423,7 +428,7 @@ def _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0,
             grad[o + 1] += ff * ty
             grad[o + 2] += (xw - ccx) * ff * ty - (yw - ccy) * ff * tx
         if want_hess:
-            _rank1(hess, m, k, xr, yr, nodes, tx, ty, p, ccx, ccy, xw, yw, fr_mulam[c] * df1)
+            _rank1(hess, smat, m, k, xr, yr, nodes, tx, ty, p, ccx, ccy, xw, yw, fr_mulam[c] * df1)
     return acc_f, acc_m, acc_fx, tip
 
 
@@ -436,8 +441,9 @@ def segment_forces(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wra
     nodes, _ = chain_nodes(theta0, n0, phi, seg_len)
     m = phi.shape[0]
     grad = np.zeros(m + 3 * u.shape[0])
-    acc_f, acc_m, _, tip = _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, fr_k, fr_s, fr_w, fr_wl, fr_t,
-                                          fr_mulam, fr_xr0, fr_xw0, dhat, kappa, eps_v, grad, np.zeros((1, 1)), False)
+    pairs = _pair_list(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, dhat, 0.0)
+    acc_f, acc_m, _, tip = _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, pairs, fr_k, fr_s, fr_w, fr_wl, fr_t,
+                                          fr_mulam, fr_xr0, fr_xw0, dhat, kappa, eps_v, grad, np.zeros((1, 1)), np.zeros((m, 3, 3)), False)
     return acc_f, acc_m, tip
 
 
@@ -452,7 +458,7 @@ def joint_moments(phi, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual):
 
 @nb.njit(**_JIT)
 def grad_hess(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
-              wa, wb, wpiece, wvert, wrad, pc0, u, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0, fr_xw0,
+              wa, wb, wpiece, wvert, wrad, pc0, u, pairs, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0, fr_xw0,
               dhat, kappa, eps_v, want_hess):
     """Gradient (n,) and Hessian (n, n) of :func:`energy` over ``z = [phi, u.ravel()]``; the
     Hessian drops the distance's own curvature (Gauss-Newton on the normal) but keeps the
@@ -468,8 +474,9 @@ def grad_hess(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi
         if want_hess:
             hess[j, j] += dmj
     nodes, theta = chain_nodes(theta0, n0, phi, seg_len)
-    acc_f, acc_m, acc_fx, _ = _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, fr_k, fr_s, fr_w, fr_wl, fr_t,
-                                             fr_mulam, fr_xr0, fr_xw0, dhat, kappa, eps_v, grad, hess, want_hess)
+    smat = np.zeros((m, 3, 3))
+    acc_f, acc_m, acc_fx, _ = _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, pairs, fr_k, fr_s, fr_w, fr_wl, fr_t,
+                                             fr_mulam, fr_xr0, fr_xw0, dhat, kappa, eps_v, grad, hess, smat, want_hess)
     # generalised forces of the contact and friction forces on the joints: suffix sums
     sfx = 0.0
     sfy = 0.0
@@ -485,9 +492,22 @@ def grad_hess(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi
         grad[j] -= sm - (nodes[j, 0] * sfy - nodes[j, 1] * sfx)
         gsum[j] = sfp - (nodes[j, 0] * sfx + nodes[j, 1] * sfy)
     if want_hess:
+        for k in range(m - 2, -1, -1):  # suffix sums: the contacts on segments >= k
+            smat[k] += smat[k + 1]
         for i in range(m):
-            for j in range(m):
-                hess[i, j] += gsum[max(i, j)]
+            wi1 = -nodes[i, 0]
+            wi2 = nodes[i, 1]
+            for j in range(i, m):  # max(i, j) = j
+                wj1 = -nodes[j, 0]
+                wj2 = nodes[j, 1]
+                sm_ = smat[j]
+                val = (sm_[0, 0] + sm_[0, 1] * wj1 + sm_[0, 2] * wj2
+                       + wi1 * (sm_[1, 0] + sm_[1, 1] * wj1 + sm_[1, 2] * wj2)
+                       + wi2 * (sm_[2, 0] + sm_[2, 1] * wj1 + sm_[2, 2] * wj2))
+                val += gsum[j]
+                hess[i, j] += val
+                if j != i:
+                    hess[j, i] += val
     # compliant pieces: springs and the tether stop
     if npc > 0:
         flat = u.ravel()
@@ -514,9 +534,18 @@ def grad_hess(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi
 
 
 @nb.njit(**_JIT)
+def _try_cholesky(a):
+    try:
+        return np.linalg.cholesky(a), True
+    except Exception:  # not positive definite
+        return a, False
+
+
+@nb.njit(**_JIT)
 def _cholesky_solve(hess, rhs):
-    """Solve ``(H + mu I) x = rhs`` with the smallest shift ``mu`` (0 or growing by 10) that
-    makes the matrix positive definite; returns ``(x, ok)``."""
+    """Solve ``(H + mu I) x = rhs`` with the smallest shift ``mu`` (0, then growing tenfold from
+    1e-8 of the largest diagonal term) that makes the matrix positive definite (a Levenberg
+    step where the collapse plateau under compression makes ``H`` indefinite); ``(x, ok)``."""
     n = hess.shape[0]
     diag_max = 0.0
     for i in range(n):
@@ -526,34 +555,20 @@ def _cholesky_solve(hess, rhs):
         a = hess.copy()
         for i in range(n):
             a[i, i] += mu
-        ok = True
-        # in-place Cholesky
-        for j in range(n):
-            s = a[j, j]
-            for k in range(j):
-                s -= a[j, k] * a[j, k]
-            if s <= 0.0 or not math.isfinite(s):
-                ok = False
-                break
-            a[j, j] = math.sqrt(s)
-            for i in range(j + 1, n):
-                t = a[i, j]
-                for k in range(j):
-                    t -= a[i, k] * a[j, k]
-                a[i, j] = t / a[j, j]
+        low, ok = _try_cholesky(a)
         if ok:
             y = np.empty(n)
             for i in range(n):
                 t = rhs[i]
                 for k in range(i):
-                    t -= a[i, k] * y[k]
-                y[i] = t / a[i, i]
+                    t -= low[i, k] * y[k]
+                y[i] = t / low[i, i]
             x = np.empty(n)
             for i in range(n - 1, -1, -1):
                 t = y[i]
                 for k in range(i + 1, n):
-                    t -= a[k, i] * x[k]
-                x[i] = t / a[i, i]
+                    t -= low[k, i] * x[k]
+                x[i] = t / low[i, i]
             return x, True
         mu = max(1e-8 * diag_max, 1e-12) if mu == 0.0 else mu * 10.0
     return np.zeros(n), False
@@ -571,8 +586,11 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
     m = phi.shape[0]
     npc = u.shape[0]
     n = m + 3 * npc
+    pairs = _pair_list(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, dhat, 2.0 * max_move)
+    anchor, _ = chain_nodes(theta0, n0, phi, seg_len)
+    anchor_u = u.copy()
     e0 = energy(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
-                wa, wb, wpiece, wvert, wrad, pc0, u, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0, fr_xw0,
+                wa, wb, wpiece, wvert, wrad, pc0, u, pairs, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0, fr_xw0,
                 dhat, kappa, eps_v)
     if not math.isfinite(e0):
         return INFEASIBLE_START, 0, np.inf, np.inf
@@ -580,7 +598,7 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
     res_f = np.inf
     for it in range(max_iter + 1):
         grad, hess = grad_hess(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
-                               wa, wb, wpiece, wvert, wrad, pc0, u, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam,
+                               wa, wb, wpiece, wvert, wrad, pc0, u, pairs, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam,
                                fr_xr0, fr_xw0, dhat, kappa, eps_v, True)
         res_m = 0.0
         for j in range(m):
@@ -624,7 +642,7 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
                 u_try[p, 1] = u[p, 1] + alpha * step[m + 3 * p + 1]
                 u_try[p, 2] = u[p, 2] + alpha * step[m + 3 * p + 2]
             e1 = energy(theta0, n0, trial_phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
-                        wa, wb, wpiece, wvert, wrad, pc0, u_try, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam,
+                        wa, wb, wpiece, wvert, wrad, pc0, u_try, pairs, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam,
                         fr_xr0, fr_xw0, dhat, kappa, eps_v)
             if math.isfinite(e1) and (e1 <= e0 + 1e-4 * alpha * slope or (e1 - e0) <= 1e-13 * abs(e0)):
                 accepted = True
@@ -634,5 +652,144 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
             return LINE_SEARCH_FAILED, it, res_m, res_f
         phi[:] = trial_phi
         u[:, :] = u_try
-        e0 = e1
+        # rebuild the pair list once anything has moved by a step's length since it was built
+        now, _ = chain_nodes(theta0, n0, phi, seg_len)
+        drift = 0.0
+        for j in range(m + 1):
+            drift = max(drift, math.sqrt((now[j, 0] - anchor[j, 0]) ** 2 + (now[j, 1] - anchor[j, 1]) ** 2))
+        for p in range(npc):
+            drift = max(drift, math.sqrt((u[p, 0] - anchor_u[p, 0]) ** 2 + (u[p, 1] - anchor_u[p, 1]) ** 2) + 0.05 * abs(u[p, 2] - anchor_u[p, 2]))
+        if drift > max_move:
+            pairs = _pair_list(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, dhat, 2.0 * max_move)
+            anchor = now
+            anchor_u = u.copy()
+        e0 = energy(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
+                    wa, wb, wpiece, wvert, wrad, pc0, u, pairs, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam,
+                    fr_xr0, fr_xw0, dhat, kappa, eps_v)
     return MAX_ITERATIONS, max_iter, res_m, res_f
+
+
+@nb.njit(**_JIT)
+def _friction_inputs(e_s, e_w, e_wl, start_nodes, s_nodes, seg_len, wpiece, pc0, u0):
+    """Window segment, parameter and start positions of lagged friction entries (material
+    coordinate ``e_s``, -1 for the tip's cap; wall feature ``e_w``; wall-frame point ``e_wl``)."""
+    nf = e_s.shape[0]
+    m = seg_len.shape[0]
+    fr_k = np.empty(nf, np.int64)
+    fr_s = np.empty(nf)
+    fr_xr0 = np.empty((nf, 2))
+    fr_xw0 = np.empty((nf, 2))
+    for i in range(nf):
+        if e_s[i] < 0:
+            k = m - 1
+            s = 1.0
+        else:
+            k = 0
+            while k < m - 1 and e_s[i] >= s_nodes[k + 1] - 1e-12:
+                k += 1
+            s = min(max((e_s[i] - s_nodes[k]) / seg_len[k], 0.0), 1.0)
+        fr_k[i] = k
+        fr_s[i] = s
+        fr_xr0[i, 0] = start_nodes[k, 0] * (1 - s) + start_nodes[k + 1, 0] * s
+        fr_xr0[i, 1] = start_nodes[k, 1] * (1 - s) + start_nodes[k + 1, 1] * s
+        x, y = _wall_point(e_w[i], e_wl[i, 0], e_wl[i, 1], wpiece, pc0, u0)
+        fr_xw0[i, 0] = x
+        fr_xw0[i, 1] = y
+    return fr_k, fr_s, fr_xr0, fr_xw0
+
+
+@nb.njit(**_JIT)
+def _entries(rows, s_nodes, seg_len, robot_mu, wall_mu, wpiece, pc0, u, dhat, kappa):
+    """Lagged friction entries of the contacts ``rows``: material coordinate (-1: the cap), wall
+    feature, wall-frame point, tangent and ``mu lambda`` (the barrier's normal force times the
+    product of the robot's and the wall's coefficients, as pymunk combines them)."""
+    nr = rows.shape[0]
+    m = seg_len.shape[0]
+    e_s = np.empty(nr)
+    e_w = np.empty(nr, np.int64)
+    e_wl = np.empty((nr, 2))
+    e_t = np.empty((nr, 2))
+    e_ml = np.empty(nr)
+    cnt = 0
+    for i in range(nr):
+        k = int(rows[i, 0])
+        w = int(rows[i, 1])
+        s = rows[i, 2]
+        gap = rows[i, 10]
+        _, b1, _ = _barrier(gap, dhat)
+        lam = -kappa * b1
+        mu = robot_mu[k] * wall_mu[w]
+        if lam <= 0.0 or mu <= 0.0:
+            continue
+        e_s[cnt] = -1.0 if (k == m - 1 and s > 0.999) else s_nodes[k] + s * seg_len[k]
+        e_w[cnt] = w
+        qx = rows[i, 6]
+        qy = rows[i, 7]
+        p = wpiece[w]
+        if p >= 0:
+            c = math.cos(u[p, 2])
+            sn = math.sin(u[p, 2])
+            dx = qx - pc0[p, 0] - u[p, 0]
+            dy = qy - pc0[p, 1] - u[p, 1]
+            qx = c * dx + sn * dy
+            qy = -sn * dx + c * dy
+        e_wl[cnt, 0] = qx
+        e_wl[cnt, 1] = qy
+        e_t[cnt, 0] = -rows[i, 9]
+        e_t[cnt, 1] = rows[i, 8]
+        e_ml[cnt] = mu * lam
+        cnt += 1
+    return e_s[:cnt], e_w[:cnt], e_wl[:cnt], e_t[:cnt], e_ml[:cnt]
+
+
+@nb.njit(**_JIT)
+def _same_entries(a_s, a_w, a_ml, b_s, b_w, b_ml, tol_f):
+    """Whether two entry sets hold the same contacts with normal forces within ``tol_f``."""
+    if a_s.shape[0] != b_s.shape[0]:
+        return False
+    for i in range(a_s.shape[0]):
+        found = False
+        for j in range(b_s.shape[0]):
+            if a_w[i] == b_w[j] and abs(a_s[i] - b_s[j]) <= 1e-9:
+                found = abs(a_ml[i] - b_ml[j]) <= tol_f
+                break
+        if not found:
+            return False
+    return True
+
+
+@nb.njit(**_JIT)
+def solve_increment(theta0, n0, phi, seg_len, seg_rad, s_nodes, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
+                    wa, wb, wpiece, wvert, wrad, wall_mu, robot_mu, pc0, u, kaa, fh, travel, k_travel,
+                    e_s, e_w, e_wl, e_t, e_ml, dhat, kappa, eps_v, tol_m, tol_f, max_iter, max_move, lag_iterations):
+    """One equilibrium of the window with lagged friction (:func:`solve`, then the normal forces
+    and tangents updated from the solution and the solve repeated, at most ``lag_iterations``
+    times, until they stop changing).  Friction resists slip from the configuration before the
+    call.  Returns ``(status, iterations, residual_m, residual_f, entries, acc_f, acc_m, tip,
+    rows)``: the new friction entries, the wall forces per segment, the tip's reaction and total
+    force, and the contact rows (:func:`contacts`) at the end."""
+    start_nodes, _ = chain_nodes(theta0, n0, phi, seg_len)
+    u0 = u.copy()
+    iters = 0
+    status = CONVERGED
+    res_m = 0.0
+    res_f = 0.0
+    rows = np.zeros((0, 11))
+    for lag in range(lag_iterations + 1):
+        fr_k, fr_s, fr_xr0, fr_xw0 = _friction_inputs(e_s, e_w, e_wl, start_nodes, s_nodes, seg_len, wpiece, pc0, u0)
+        status, it, res_m, res_f = solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
+                                         wa, wb, wpiece, wvert, wrad, pc0, u, kaa, fh, travel, k_travel, fr_k, fr_s, e_w, e_wl, e_t,
+                                         e_ml, fr_xr0, fr_xw0, dhat, kappa, eps_v, tol_m, tol_f, max_iter, max_move)
+        iters += it
+        if status == INFEASIBLE_START:
+            break
+        rows = contacts(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, dhat, 0.0)
+        n_s, n_w, n_wl, n_t, n_ml = _entries(rows, s_nodes, seg_len, robot_mu, wall_mu, wpiece, pc0, u, dhat, kappa)
+        done = _same_entries(e_s, e_w, e_ml, n_s, n_w, n_ml, tol_f)
+        e_s, e_w, e_wl, e_t, e_ml = n_s, n_w, n_wl, n_t, n_ml
+        if done or lag == lag_iterations:
+            break
+    fr_k, fr_s, fr_xr0, fr_xw0 = _friction_inputs(e_s, e_w, e_wl, start_nodes, s_nodes, seg_len, wpiece, pc0, u0)
+    acc_f, acc_m, tip = segment_forces(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, fr_k, fr_s, e_w, e_wl,
+                                       e_t, e_ml, fr_xr0, fr_xw0, dhat, kappa, eps_v)
+    return status, iters, res_m, res_f, e_s, e_w, e_wl, e_t, e_ml, acc_f, acc_m, tip, rows

@@ -65,6 +65,8 @@ _QUERY_MARGIN_M = 0.012
 _MAX_MOVE_M = 0.004
 #: Bisection steps that cut an increment back to the length where the drive balances the wall.
 _BISECTIONS = 7
+#: Largest change of the tip's reaction against growth over one increment, as a fraction of p pi r^2.
+_FORCE_STEP_FRACTION = 0.05
 #: A pressure change of this fraction (of at least 1 kPa) since the last solve triggers a new one.
 _PRESSURE_RESOLVE_FRACTION = 0.01
 
@@ -202,6 +204,17 @@ class QuasiStaticSim:
         self._piece_bodies: list[pymunk.Body] = list(getattr(handles, "bodies", []) or [])
         piece_index = {id(b): i for i, b in enumerate(self._piece_bodies)}
         self._walls = _read_walls(handles, piece_index)
+        w = self._walls
+        world_a = w.a + np.where(w.piece[:, None] >= 0, 0.0, 0.0)
+        ends = [w.a, w.b]
+        if len(self._piece_bodies):  # a piece's features in world coordinates at rest
+            pos = np.array([tuple(b.position) for b in self._piece_bodies], float)
+            moving = w.piece >= 0
+            ends = [np.where(moving[:, None], e + pos[np.maximum(w.piece, 0)], e) for e in ends]
+        del world_a
+        grow = (w.radius + (getattr(getattr(handles, "network", None), "mechanics", None).max_travel_m + 0.005
+                            if len(self._piece_bodies) else 0.0) * (w.piece >= 0))[:, None]
+        self._feature_boxes = (np.minimum(*ends) - grow - w.radius[:, None], np.maximum(*ends) + grow + w.radius[:, None])
         net = getattr(handles, "network", None)
         n_p = len(self._piece_bodies)
         self._pc0 = np.array([tuple(b.position) for b in self._piece_bodies], float).reshape(-1, 2)
@@ -242,7 +255,7 @@ class QuasiStaticSim:
         self._pending = 0.0
         self._p_solved = -1.0
         self._stats = SolveStats()
-        self._fric: list[tuple] = []  # lagged friction: (seg, s on it, wall, wall-frame point, tangent, mu lambda, x_r, x_w)
+        self._fric = {"s": np.zeros(0), "wall": np.zeros(0, np.int64), "wl": np.zeros((0, 2)), "t": np.zeros((0, 2)), "ml": np.zeros(0)}
         self._seg_force = np.zeros((0, 2))  # per segment: sum of wall forces (N), sum of p x f (N m)
         self._seg_moment = np.zeros(0)
         self._contact_segs: set[int] = set()
@@ -424,35 +437,60 @@ class QuasiStaticSim:
 
     # ---- one growth increment ----------------------------------------------------------
     def _snapshot(self) -> tuple:
-        return (list(self.phi), list(self.seg_len), list(self.seg_rad), self.length, self._u_all.copy(), list(self._fric),
+        return (list(self.phi), list(self.seg_len), list(self.seg_rad), self.length, self._u_all.copy(), dict(self._fric),
                 self._seg_force.copy(), self._seg_moment.copy(), set(self._contact_segs), self.tip_force, self.tip_contact.copy(),
                 self._tip_clearance, self.active_start, self._mw_used.copy())
 
     def _restore(self, snap: tuple) -> None:
         (phi, seg_len, seg_rad, self.length, u, fric, seg_force, seg_moment, contact_segs, self.tip_force,
          tip_contact, self._tip_clearance, self.active_start, mw_used) = snap
-        self.phi, self.seg_len, self.seg_rad, self._fric = list(phi), list(seg_len), list(seg_rad), list(fric)
+        self.phi, self.seg_len, self.seg_rad, self._fric = list(phi), list(seg_len), list(seg_rad), dict(fric)
         self._u_all = u.copy()
         self._seg_force, self._seg_moment, self._contact_segs = seg_force.copy(), seg_moment.copy(), set(contact_segs)
         self.tip_contact = tip_contact.copy()
         self._mw_used = mw_used.copy()
 
     def _advance(self, p: float) -> None:
-        """Grow by the pending length at pressure ``p`` and solve; if the wall's reaction at the
-        full increment asks more pressure than ``p``, cut the growth back by bisection to the length
-        where the two meet (a stall's position does not depend on the increment)."""
+        """Grow by the pending length at pressure ``p`` in increments of at most
+        ``growth_increment_m``, each solved to equilibrium.  An increment across which the wall's
+        reaction against growth changes by more than :data:`_FORCE_STEP_FRACTION` of ``p pi r^2``
+        is halved (down to 1/64 of the increment), so that a narrow rise of the reaction is seen
+        whatever the increment, and so is one whose straight extension would overlap a wall (the
+        body then bends away in smaller steps, as IPC's continuous collision step would); one after which the tip needs more pressure than ``p`` is cut back
+        by bisection to the length where the two meet, and growth stops there."""
         self._apply_pressure(p)
         self._p_solved = p
-        dl = self._pending
+        remaining = self._pending
         self._pending = 0.0
-        if dl <= 0:
+        if remaining <= 0:
             self._solve()
             self._publish()
             return
-        start = self._snapshot()
-        if self._grow(dl) and self._solve() and self._required(self.tip_force) <= p * (1 + 1e-9):
-            self._publish()
-            return
+        f_step = _FORCE_STEP_FRACTION * self._scales()[0]
+        dl_max = self._increment()
+        dl_min = self.cfg.growth_increment_m / 64.0
+        dl = dl_max
+        while remaining > 1e-12:
+            dl = min(dl, remaining)
+            start = self._snapshot()
+            f0 = self.tip_force
+            ok = self._grow(dl) and self._solve()
+            if dl > dl_min and (not ok or abs(self.tip_force - f0) > f_step):  # a wall ahead: smaller steps
+                self._restore(start)
+                dl = max(0.5 * dl, dl_min)
+                continue
+            if ok and self._required(self.tip_force) <= p * (1 + 1e-9):
+                remaining -= dl
+                dl = min(2.0 * dl, dl_max)
+                self._publish()
+                continue
+            self._cut_back(start, dl, p)
+            break
+        self._publish()
+
+    def _cut_back(self, start: tuple, dl: float, p: float) -> None:
+        """Bisect growth in ``(0, dl)`` from state ``start`` for the longest admissible length at
+        which the tip's required pressure stays within ``p``; leave the body there."""
         lo, hi, best = 0.0, dl, None
         for _ in range(_BISECTIONS):
             mid = 0.5 * (lo + hi)
@@ -466,7 +504,6 @@ class QuasiStaticSim:
             self._solve()
         else:
             self._restore(best)
-        self._publish()
 
     def _grow(self, dl: float) -> bool:
         """Lengthen the tip segment by ``dl`` (m), splitting it past two segments; the tip's radius
@@ -520,14 +557,16 @@ class QuasiStaticSim:
 
     # ---- geometry queries ---------------------------------------------------------------------
     def _query_walls(self, pts: np.ndarray, reach: float) -> np.ndarray:
-        """Indices of the wall segments whose shapes' boxes come within ``reach`` (m) of ``pts``."""
+        """Indices of the wall features whose boxes come within ``reach`` (m) of ``pts``' box: the
+        pymunk shapes' boxes at rest, grown by the compliant wall's travel (a vectorised box test,
+        cheaper than pymunk's callback per shape)."""
         if not len(self._walls.a):
             return np.zeros(0, np.int64)
         lo = pts.min(axis=0) - reach
         hi = pts.max(axis=0) + reach
-        shapes = self.space.bb_query(pymunk.BB(float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])), pymunk.ShapeFilter())
-        idx = self._walls.index
-        return np.array(sorted({f for s in shapes if id(s) in idx for f in idx[id(s)]}), np.int64)
+        blo, bhi = self._feature_boxes
+        hit = np.all(bhi >= lo, axis=1) & np.all(blo <= hi, axis=1)
+        return np.nonzero(hit)[0]
 
     def _wall_world(self, w: int) -> tuple[np.ndarray, np.ndarray]:
         a, b = self._walls.a[w], self._walls.b[w]
@@ -554,8 +593,10 @@ class QuasiStaticSim:
 
     # ---- the equilibrium solve ------------------------------------------------------------
     def _window_start(self) -> int:
+        """The joints within ``active_length_m`` of the tip, and every joint a previous solve had
+        to take back (a free span behind the window stays in it)."""
         n = len(self.phi)
-        return max(0, n - max(2, int(math.ceil(self.cfg.active_length_m / self.ds))))
+        return min(max(0, n - max(2, int(math.ceil(self.cfg.active_length_m / self.ds)))), self.active_start)
 
     def _solve(self) -> bool:
         """Put the window, and any held joint out of balance, in equilibrium; False if the
@@ -589,6 +630,7 @@ class QuasiStaticSim:
         return int(bad[0]) if len(bad) else None
 
     def _solve_window(self, a: int, tol_m: float, tol_f: float) -> bool:
+        """Solve joints ``a..`` with the compliant wall pieces near them; commit the result."""
         cfg = self.cfg
         nodes, theta = self._all_nodes()
         theta0 = self.base_angle if a == 0 else float(theta[a - 1])
@@ -597,17 +639,18 @@ class QuasiStaticSim:
         seg_len = np.asarray(self.seg_len[a:], float)
         seg_rad = np.asarray(self.seg_rad[a:], float)
         m = len(phi)
-        k_j = self._k_all[a : a + m].copy()
-        mw_j = self._mw_all[a : a + m].copy()
-        sel = self._query_walls(nodes[a:], float(np.max(seg_rad)) + cfg.barrier_gap_m + _QUERY_MARGIN_M)
+        s_nodes = np.append(self.nodes[a : a + m], self.length)
+        k_j = np.ascontiguousarray(self._k_all[a : a + m])
+        mw_j = np.ascontiguousarray(self._mw_all[a : a + m])
         walls = self._walls
-        wa, wb, wrad, wvert = walls.a[sel], walls.b[sel], walls.radius[sel], walls.vertex[sel]
+        sel = self._query_walls(nodes[a:], float(np.max(seg_rad)) + cfg.barrier_gap_m + _QUERY_MARGIN_M)
         wpiece_g = walls.piece[sel]
         pieces = np.unique(wpiece_g[wpiece_g >= 0])
-        local = {int(p): i for i, p in enumerate(pieces)}
-        wpiece = np.array([local.get(int(p), -1) for p in wpiece_g], np.int64)
-        pc0 = self._pc0[pieces].copy() if len(pieces) else np.zeros((0, 2))
-        u = self._u_all[pieces].copy() if len(pieces) else np.zeros((0, 3))
+        local = np.full(len(self._piece_bodies) + 1, -1, np.int64)
+        local[pieces] = np.arange(len(pieces))
+        wpiece = np.where(wpiece_g >= 0, local[wpiece_g], -1)
+        pc0 = self._pc0[pieces] if len(pieces) else np.zeros((0, 2))
+        u = self._u_all[pieces] if len(pieces) else np.zeros((0, 3))
         if len(pieces):
             dof = (3 * pieces[:, None] + np.arange(3)[None, :]).ravel()
             held = np.setdiff1d(np.arange(self._k_wall.shape[0]), dof)
@@ -617,37 +660,29 @@ class QuasiStaticSim:
             k_travel = np.full(len(pieces), self._k_travel)
         else:
             kaa, fh, travel, k_travel = np.zeros((0, 0)), np.zeros(0), np.zeros(0), np.zeros(0)
-        kappa = self._kappa
-        sel_pos = {int(w): i for i, w in enumerate(sel)}
+        sel_pos = np.full(len(walls.a), -1, np.int64)
+        sel_pos[sel] = np.arange(len(sel))
         robot_mu = np.full(m, cfg.wall_friction)
         robot_mu[-1] = cfg.tip_friction
-        fric = [e for e in self._fric if self._entry_segment(e, a) is not None and e[1] in sel_pos]
-        status, res_m, res_f = qk.CONVERGED, 0.0, 0.0
-        rows = np.zeros((0, 11))
-        start_nodes = nodes[a:].copy()  # the configuration before this solve: friction resists slip from it
-        u0 = u.copy()
-        for lag in range(cfg.friction_lag_iterations + 1):
-            fr = self._friction_arrays(fric, a, sel_pos, start_nodes, seg_len, wpiece, pc0, u0)
-            status, iters, res_m, res_f = qk.solve(
-                theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, *_LAW[:3], _LAW[3], RESIDUAL_STIFFNESS_FRACTION,
-                wa, wb, wpiece, wvert, wrad, pc0, u, kaa, fh, travel, k_travel, *fr,
-                cfg.barrier_gap_m, kappa, cfg.friction_slip_m, tol_m, tol_f, cfg.max_newton_iterations, _MAX_MOVE_M)
-            self._stats.newton_iterations += iters
-            if status == qk.INFEASIBLE_START:
-                return False
-            rows = qk.contacts(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, cfg.barrier_gap_m, 0.0)
-            new = self._lagged_entries(rows, a, sel, wpiece, pc0, u, seg_len, robot_mu)
-            done = self._lag_converged(fric, new, tol_f)
-            fric = new
-            if done or lag == cfg.friction_lag_iterations:
-                break
+        fric = self._fric
+        j_all = self._entry_segments(fric, a)
+        in_window = j_all >= a
+        mine = in_window & (sel_pos[fric["wall"]] >= 0)
+        (status, iters, res_m, res_f, e_s, e_w, e_wl, e_t, e_ml, acc_f, acc_m, tip, rows) = qk.solve_increment(
+            theta0, n0, phi, seg_len, seg_rad, s_nodes, k_j, mw_j, *_LAW[:3], _LAW[3], RESIDUAL_STIFFNESS_FRACTION,
+            walls.a[sel], walls.b[sel], wpiece, walls.vertex[sel], walls.radius[sel], walls.friction[sel], robot_mu, pc0, u, kaa, fh,
+            travel, k_travel, fric["s"][mine], sel_pos[fric["wall"][mine]], np.ascontiguousarray(fric["wl"][mine]),
+            np.ascontiguousarray(fric["t"][mine]), fric["ml"][mine], cfg.barrier_gap_m, self._kappa, cfg.friction_slip_m, tol_m,
+            tol_f, cfg.max_newton_iterations, _MAX_MOVE_M, cfg.friction_lag_iterations)
+        self._stats.newton_iterations += iters
+        if status == qk.INFEASIBLE_START:
+            return False
         self._stats.solves += 1
         ratio = max(res_m / tol_m, res_f / tol_f) * cfg.solver_tolerance  # largest residual over p pi r^2 (r^3)
         self._stats.max_residual_ratio = max(self._stats.max_residual_ratio, ratio)
         if status != qk.CONVERGED:
             self._stats.failures += 1
-            if self._stats.failures <= 1 or status == qk.LINE_SEARCH_FAILED:
-                self._event("solve_failed", status=int(status), residual=round(ratio, 6))
+            self._event("solve_failed", status=int(status), residual=round(ratio, 6))
         # commit the window
         self.phi[a:] = phi.tolist()
         if len(pieces):
@@ -656,11 +691,10 @@ class QuasiStaticSim:
                 body = self._piece_bodies[int(p_)]
                 body.position = tuple(self._pc0[p_] + uu[:2])
                 body.angle = float(uu[2])
-                self.space.reindex_shapes_for_body(body)
-        self._fric = [e for e in self._fric if self._entry_segment(e, a) is None] + fric
-        fr = self._friction_arrays(fric, a, sel_pos, start_nodes, seg_len, wpiece, pc0, u0)
-        acc_f, acc_m, tip = qk.segment_forces(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, *fr,
-                                              cfg.barrier_gap_m, kappa, cfg.friction_slip_m)
+        keep = ~in_window
+        self._fric = {"s": np.concatenate([fric["s"][keep], e_s]), "wall": np.concatenate([fric["wall"][keep], sel[e_w]]),
+                      "wl": np.concatenate([fric["wl"][keep], e_wl]), "t": np.concatenate([fric["t"][keep], e_t]),
+                      "ml": np.concatenate([fric["ml"][keep], e_ml])}
         n = len(self.phi)
         if len(self._seg_force) != n:
             self._seg_force = np.vstack([self._seg_force, np.zeros((n - len(self._seg_force), 2))])[:n]
@@ -676,79 +710,16 @@ class QuasiStaticSim:
         return True
 
     # ---- lagged friction ------------------------------------------------------------------
-    # An entry is (s, wall, wall-frame point x, y, tangent x, y, mu lambda): ``s`` the robot point's
-    # material coordinate (m), or -1 for the tip's cap, which is always the newest material.
-    def _entry_segment(self, entry: tuple, a: int) -> tuple[int, float] | None:
-        """Window segment (from ``a``) and parameter of an entry's robot point; None if held."""
+    # Entries are arrays: ``s`` the robot point's material coordinate (m; -1 for the tip's cap,
+    # which is always the newest material), ``wall`` its wall feature, ``wl`` the wall point in
+    # the wall's frame, ``t`` the tangent, ``ml`` mu times the lagged normal force (N).
+    def _entry_segments(self, fric: dict, a: int) -> np.ndarray:
+        """Segment of each entry's robot point."""
         n = len(self.seg_len)
-        smat = entry[0]
-        if smat < 0:
-            j, s = n - 1, 1.0
-        else:
-            j = min(int(smat / self.ds + 1e-9), n - 1)
-            s = min(max((smat - self.nodes[j]) / self.seg_len[j], 0.0), 1.0)
-        return None if j < a else (j - a, s)
-
-    def _friction_arrays(self, fric: list, a: int, sel_pos: dict, start_nodes: np.ndarray, seg_len: np.ndarray,
-                         wpiece: np.ndarray, pc0: np.ndarray, u0: np.ndarray) -> tuple:
-        """The kernel's friction arrays; the slip is measured from ``start_nodes`` and ``u0``."""
-        nf = len(fric)
-        fr_k = np.zeros(nf, np.int64)
-        fr_s = np.zeros(nf)
-        fr_w = np.zeros(nf, np.int64)
-        fr_wl = np.zeros((nf, 2))
-        fr_t = np.zeros((nf, 2))
-        fr_ml = np.zeros(nf)
-        fr_xr0 = np.zeros((nf, 2))
-        fr_xw0 = np.zeros((nf, 2))
-        for i, e in enumerate(fric):
-            seg = self._entry_segment(e, a)
-            assert seg is not None
-            k, s = seg
-            fr_k[i], fr_s[i] = k, s
-            w = sel_pos[e[1]]
-            fr_w[i] = w
-            fr_wl[i] = e[2], e[3]
-            fr_t[i] = e[4], e[5]
-            fr_ml[i] = e[6]
-            fr_xr0[i] = start_nodes[k] * (1 - s) + start_nodes[k + 1] * s
-            fr_xw0[i] = qk._wall_point(w, e[2], e[3], wpiece, pc0, u0)
-        return fr_k, fr_s, fr_w, fr_wl, fr_t, fr_ml, fr_xr0, fr_xw0
-
-    def _lagged_entries(self, rows: np.ndarray, a: int, sel: np.ndarray, wpiece: np.ndarray, pc0: np.ndarray, u: np.ndarray,
-                        seg_len: np.ndarray, robot_mu: np.ndarray) -> list:
-        """Friction entries of the contacts ``rows`` (:func:`~evertgym.sim.qs_kernel.contacts`): the
-        barrier's normal force times ``mu`` (robot x wall, as pymunk combines them), the tangent."""
-        dhat = self.cfg.barrier_gap_m
-        out = []
-        m = len(seg_len)
-        for k, w, s, _, _, _, qx, qy, nx, ny, gap in rows:
-            k, w = int(k), int(w)
-            r = gap - dhat
-            lam = self._kappa * (2.0 * r * math.log(gap / dhat) + r * r / gap)
-            mu = robot_mu[k] * self._walls.friction[sel[w]]
-            if lam <= 0 or mu <= 0:
-                continue
-            smat = -1.0 if (k == m - 1 and s > 0.999) else float(self.nodes[a + k] + s * seg_len[k])
-            p = wpiece[w]
-            if p >= 0:
-                c, sn = math.cos(u[p, 2]), math.sin(u[p, 2])
-                dx, dy = qx - pc0[p, 0] - u[p, 0], qy - pc0[p, 1] - u[p, 1]
-                qx, qy = c * dx + sn * dy, -sn * dx + c * dy
-            out.append((smat, int(sel[w]), float(qx), float(qy), -float(ny), float(nx), mu * lam))
-        return out
-
-    @staticmethod
-    def _lag_converged(old: list, new: list, tol_f: float) -> bool:
-        """Whether the lagged normal forces stopped changing (same contacts, within ``tol_f``)."""
-        if len(old) != len(new):
-            return False
-        before = {(round(e[0], 6), e[1]): e[6] for e in old}
-        for e in new:
-            prev = before.get((round(e[0], 6), e[1]))
-            if prev is None or abs(prev - e[6]) > tol_f:
-                return False
-        return True
+        smat = fric["s"]
+        j = np.minimum(np.floor(np.maximum(smat, 0.0) / self.ds + 1e-9).astype(np.int64), n - 1)
+        j[smat < 0] = n - 1
+        return j
 
     # ---- events, stalls ---------------------------------------------------------------------
     def _stall_update(self, v: float, dt: float) -> None:
