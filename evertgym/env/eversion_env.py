@@ -455,7 +455,9 @@ class EversionEnv(gym.Env):
             "tip_arclength_mm": self._s_tip * 1e3,
             "regulator_tau_s": sim.cfg.regulator_tau_s,
             "wall_friction": sim.cfg.wall_friction,
+            "engine": sim.cfg.engine,
         }
+        info.update(sim.solve_stats)  # quasi-static engine: solves, solve_failures, ... (never hidden)
         info.update({f"reward_{k}": float(v) for k, v in self._terms.items()})
         return info
 

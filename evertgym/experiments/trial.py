@@ -77,6 +77,8 @@ def run_trial(spec: TrialSpec) -> dict:
         "stall_count": int(info["stall_count"]),
         "pressure_position": [[round(x, 1), round(p, 3)] for x, p in pressures[:: max(1, len(pressures) // 60)]],
         "scene_params": {k: v for k, v in env.scene.params.items() if isinstance(v, (int, float, str, bool))},
+        "engine": env.sim.cfg.engine,
+        **env.sim.solve_stats,  # the quasi-static engine's solves and the ones that ended above tolerance
     }
     if not info["success"]:  # where and why it stopped (evertgym.sim.diagnostics)
         result["jam"] = jam_anatomy(env.sim, env.scene)

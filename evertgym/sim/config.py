@@ -115,7 +115,7 @@ class SimConfig:
     solver_tolerance: float = 1e-3
     barrier_gap_m: float = 0.001
     friction_slip_m: float = 1e-5
-    friction_lag_iterations: int = 2
+    friction_lag_iterations: int = 1
     max_newton_iterations: int = 60
 
     def __post_init__(self) -> None:

@@ -241,9 +241,42 @@ def contacts(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0
 
 
 @nb.njit(**_JIT)
+def pair_rows(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, cand, dhat, margin):
+    """:func:`contacts` restricted to the candidate pairs ``cand`` (k, w)."""
+    nodes, _ = chain_nodes(theta0, n0, phi, seg_len)
+    out = np.empty((cand.shape[0], 11))
+    cnt = 0
+    for c in range(cand.shape[0]):
+        k = cand[c, 0]
+        w = cand[c, 1]
+        cx, cy, dx, dy = wall_world(w, wa, wb, wpiece, pc0, u)
+        s, px, py, qx, qy, dist = _pair(nodes[k, 0], nodes[k, 1], nodes[k + 1, 0], nodes[k + 1, 1], cx, cy, dx, dy, wvert[w])
+        gap = dist - seg_rad[k] - wrad[w]
+        if gap >= dhat + margin:
+            continue
+        out[cnt, 0] = k
+        out[cnt, 1] = w
+        out[cnt, 2] = s
+        out[cnt, 3] = 0.0
+        out[cnt, 4] = px
+        out[cnt, 5] = py
+        out[cnt, 6] = qx
+        out[cnt, 7] = qy
+        out[cnt, 8] = (px - qx) / dist if dist > 0 else 0.0
+        out[cnt, 9] = (py - qy) / dist if dist > 0 else 0.0
+        out[cnt, 10] = gap
+        cnt += 1
+    return out[:cnt]
+
+
+@nb.njit(**_JIT)
 def _pair_list(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, dhat, margin):
     """``(k, w)`` of every robot-wall pair within ``dhat + margin`` (the candidates of a solve)."""
-    rows = contacts(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, dhat, margin)
+    return _rows_to_pairs(contacts(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, dhat, margin))
+
+
+@nb.njit(**_JIT)
+def _rows_to_pairs(rows):
     out = np.empty((rows.shape[0], 2), np.int64)
     for i in range(rows.shape[0]):
         out[i, 0] = int(rows[i, 0])
@@ -374,7 +407,8 @@ def _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0,
     acc_fx = np.zeros(m)
     ex = (nodes[m, 0] - nodes[m - 1, 0]) / seg_len[m - 1]
     ey = (nodes[m, 1] - nodes[m - 1, 1]) / seg_len[m - 1]
-    tip = np.zeros(3)
+    tip = np.zeros(4)
+    tip[3] = np.inf
     for c in range(pairs.shape[0]):
         k = pairs[c, 0]
         w = pairs[c, 1]
@@ -433,17 +467,23 @@ def _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0,
 
 
 @nb.njit(**_JIT)
-def segment_forces(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0,
+def segment_forces(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, cand, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0,
                    fr_xw0, dhat, kappa, eps_v):
     """The wall forces on the window at ``phi``: per segment the force (N, m x 2) and its moment
-    about the origin (N m, m); and ``(F_tip, fx, fy)``: the reaction against growth and the total
-    force on the tip segment (N)."""
+    about the origin (N m, m); and ``(F_tip, fx, fy, gap)``: the reaction against growth and the
+    total force on the tip segment (N), and the tip segment's smallest gap to a candidate wall (m)."""
     nodes, _ = chain_nodes(theta0, n0, phi, seg_len)
     m = phi.shape[0]
     grad = np.zeros(m + 3 * u.shape[0])
-    pairs = _pair_list(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, dhat, 0.0)
+    near = pair_rows(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, cand, dhat, 0.0)
+    pairs = _rows_to_pairs(near)
     acc_f, acc_m, _, tip = _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, pairs, fr_k, fr_s, fr_w, fr_wl, fr_t,
                                           fr_mulam, fr_xr0, fr_xw0, dhat, kappa, eps_v, grad, np.zeros((1, 1)), np.zeros((m, 3, 3)), False)
+    # the tip segment's clearance among the candidates (inf if none)
+    tip_rows = pair_rows(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, cand, dhat, 1.0)
+    for i in range(tip_rows.shape[0]):
+        if int(tip_rows[i, 0]) == m - 1:
+            tip[3] = min(tip[3], tip_rows[i, 10])
     return acc_f, acc_m, tip
 
 
@@ -542,7 +582,7 @@ def _try_cholesky(a):
 
 
 @nb.njit(**_JIT)
-def _cholesky_solve(hess, rhs):
+def _cholesky_solve(hess, rhs, mu0=0.0):
     """Solve ``(H + mu I) x = rhs`` with the smallest shift ``mu`` (0, then growing tenfold from
     1e-8 of the largest diagonal term) that makes the matrix positive definite (a Levenberg
     step where the collapse plateau under compression makes ``H`` indefinite); ``(x, ok)``."""
@@ -550,7 +590,7 @@ def _cholesky_solve(hess, rhs):
     diag_max = 0.0
     for i in range(n):
         diag_max = max(diag_max, abs(hess[i, i]))
-    mu = 0.0
+    mu = mu0
     for _ in range(40):
         a = hess.copy()
         for i in range(n):
@@ -569,15 +609,15 @@ def _cholesky_solve(hess, rhs):
                 for k in range(i + 1, n):
                     t -= low[k, i] * x[k]
                 x[i] = t / low[i, i]
-            return x, True
+            return x, mu
         mu = max(1e-8 * diag_max, 1e-12) if mu == 0.0 else mu * 10.0
-    return np.zeros(n), False
+    return np.zeros(n), -1.0
 
 
 @nb.njit(**_JIT)
 def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
           wa, wb, wpiece, wvert, wrad, pc0, u, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0, fr_xw0,
-          dhat, kappa, eps_v, tol_m, tol_f, max_iter, max_move):
+          dhat, kappa, eps_v, tol_m, tol_f, max_iter, max_move, cand):
     """Newton's method on :func:`energy` from ``(phi, u)`` (updated in place).
 
     Returns ``(status, iterations, residual_m, residual_f)``: the largest unbalanced joint
@@ -586,7 +626,7 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
     m = phi.shape[0]
     npc = u.shape[0]
     n = m + 3 * npc
-    pairs = _pair_list(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, dhat, 2.0 * max_move)
+    pairs = _rows_to_pairs(pair_rows(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, cand, dhat, 2.0 * max_move))
     anchor, _ = chain_nodes(theta0, n0, phi, seg_len)
     anchor_u = u.copy()
     e0 = energy(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
@@ -596,6 +636,7 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
         return INFEASIBLE_START, 0, np.inf, np.inf
     res_m = np.inf
     res_f = np.inf
+    shift = 0.0  # the last Levenberg shift, warm start of the next (a tenth of it)
     for it in range(max_iter + 1):
         grad, hess = grad_hess(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
                                wa, wb, wpiece, wvert, wrad, pc0, u, pairs, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam,
@@ -611,8 +652,8 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
             return CONVERGED, it, res_m, res_f
         if it == max_iter:
             break
-        step, ok = _cholesky_solve(hess, -grad)
-        if not ok:
+        step, shift = _cholesky_solve(hess, -grad, 0.1 * shift)
+        if shift < 0:
             return LINE_SEARCH_FAILED, it, res_m, res_f
         # limit the step: no joint turns by more than 0.5 rad, no node moves more than max_move
         smax = 0.0
@@ -660,7 +701,8 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
         for p in range(npc):
             drift = max(drift, math.sqrt((u[p, 0] - anchor_u[p, 0]) ** 2 + (u[p, 1] - anchor_u[p, 1]) ** 2) + 0.05 * abs(u[p, 2] - anchor_u[p, 2]))
         if drift > max_move:
-            pairs = _pair_list(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, dhat, 2.0 * max_move)
+            pairs = _rows_to_pairs(pair_rows(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, cand, dhat,
+                                             2.0 * max_move))
             anchor = now
             anchor_u = u.copy()
         e0 = energy(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
@@ -759,17 +801,21 @@ def _same_entries(a_s, a_w, a_ml, b_s, b_w, b_ml, tol_f):
 
 
 @nb.njit(**_JIT)
-def solve_increment(theta0, n0, phi, seg_len, seg_rad, s_nodes, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
+def solve_increment(theta0, n0, phi, phi_ref, seg_len, seg_rad, s_nodes, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
                     wa, wb, wpiece, wvert, wrad, wall_mu, robot_mu, pc0, u, kaa, fh, travel, k_travel,
                     e_s, e_w, e_wl, e_t, e_ml, dhat, kappa, eps_v, tol_m, tol_f, max_iter, max_move, lag_iterations):
     """One equilibrium of the window with lagged friction (:func:`solve`, then the normal forces
     and tangents updated from the solution and the solve repeated, at most ``lag_iterations``
     times, until they stop changing).  Friction resists slip from the configuration before the
-    call.  Returns ``(status, iterations, residual_m, residual_f, entries, acc_f, acc_m, tip,
+    call, ``phi_ref`` (``phi`` may hold a predicted start).  Returns ``(status, iterations, residual_m, residual_f, entries, acc_f, acc_m, tip,
     rows)``: the new friction entries, the wall forces per segment, the tip's reaction and total
     force, and the contact rows (:func:`contacts`) at the end."""
-    start_nodes, _ = chain_nodes(theta0, n0, phi, seg_len)
+    start_nodes, _ = chain_nodes(theta0, n0, phi_ref, seg_len)
     u0 = u.copy()
+    reach = 2.0 * max_move + dhat  # candidates for every pair a solve can reach; re-listed if the body moves further
+    cand = _pair_list(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, dhat, reach)
+    anchor = start_nodes.copy()
+    anchor_u = u.copy()
     iters = 0
     status = CONVERGED
     res_m = 0.0
@@ -779,17 +825,28 @@ def solve_increment(theta0, n0, phi, seg_len, seg_rad, s_nodes, k_j, mw_j, law_u
         fr_k, fr_s, fr_xr0, fr_xw0 = _friction_inputs(e_s, e_w, e_wl, start_nodes, s_nodes, seg_len, wpiece, pc0, u0)
         status, it, res_m, res_f = solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
                                          wa, wb, wpiece, wvert, wrad, pc0, u, kaa, fh, travel, k_travel, fr_k, fr_s, e_w, e_wl, e_t,
-                                         e_ml, fr_xr0, fr_xw0, dhat, kappa, eps_v, tol_m, tol_f, max_iter, max_move)
+                                         e_ml, fr_xr0, fr_xw0, dhat, kappa, eps_v, tol_m, tol_f, max_iter, max_move, cand)
         iters += it
         if status == INFEASIBLE_START:
             break
-        rows = contacts(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, dhat, 0.0)
+        now, _ = chain_nodes(theta0, n0, phi, seg_len)
+        drift = 0.0
+        for j in range(now.shape[0]):
+            drift = max(drift, math.sqrt((now[j, 0] - anchor[j, 0]) ** 2 + (now[j, 1] - anchor[j, 1]) ** 2))
+        for p in range(u.shape[0]):
+            drift = max(drift, math.sqrt((u[p, 0] - anchor_u[p, 0]) ** 2 + (u[p, 1] - anchor_u[p, 1]) ** 2)
+                        + 0.05 * abs(u[p, 2] - anchor_u[p, 2]))
+        if drift > 0.5 * reach:
+            cand = _pair_list(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, dhat, reach)
+            anchor = now
+            anchor_u = u.copy()
+        rows = pair_rows(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, cand, dhat, 0.0)
         n_s, n_w, n_wl, n_t, n_ml = _entries(rows, s_nodes, seg_len, robot_mu, wall_mu, wpiece, pc0, u, dhat, kappa)
         done = _same_entries(e_s, e_w, e_ml, n_s, n_w, n_ml, tol_f)
         e_s, e_w, e_wl, e_t, e_ml = n_s, n_w, n_wl, n_t, n_ml
         if done or lag == lag_iterations:
             break
     fr_k, fr_s, fr_xr0, fr_xw0 = _friction_inputs(e_s, e_w, e_wl, start_nodes, s_nodes, seg_len, wpiece, pc0, u0)
-    acc_f, acc_m, tip = segment_forces(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, fr_k, fr_s, e_w, e_wl,
+    acc_f, acc_m, tip = segment_forces(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, cand, fr_k, fr_s, e_w, e_wl,
                                        e_t, e_ml, fr_xr0, fr_xw0, dhat, kappa, eps_v)
     return status, iters, res_m, res_f, e_s, e_w, e_wl, e_t, e_ml, acc_f, acc_m, tip, rows

@@ -227,9 +227,9 @@ class QuasiStaticSim:
 
         # the body's state: per segment its joint rotation (joint j against segment j - 1; joint 0
         # against the clamp), length and collision radius
-        self.phi: list[float] = []
-        self.seg_len: list[float] = []
-        self.seg_rad: list[float] = []
+        self.phi = np.zeros(0)  # rad
+        self.seg_len = np.zeros(0)  # m
+        self.seg_rad = np.zeros(0)  # m
         self.length = 0.0
         self._start_chain(cfg.initial_length_m)
 
@@ -262,6 +262,8 @@ class QuasiStaticSim:
         self.active_start = 0
         self._tip_clearance = math.inf
         self._mw_used = np.zeros(len(self.nodes))
+        self._predict: tuple[np.ndarray, float] | None = None
+        self._rate: np.ndarray | None = None
         # barrier stiffness: 0.1 x the largest drive (8 kPa pi r^2) per barrier gap (N/m)
         self._kappa = 0.1 * 8000.0 * math.pi * design.radius_m**2 / cfg.barrier_gap_m
         self._apply_pressure(0.0)
@@ -269,6 +271,9 @@ class QuasiStaticSim:
         self._publish()
 
     # ---- construction -----------------------------------------------------------
+    def _near_band(self, s: float) -> bool:
+        return any(lo <= s <= hi for lo, hi in self._band_zones)
+
     def _radius_between(self, a: float, b: float) -> float:
         s, r = self._radius_fine
         m = (s >= a - 1e-12) & (s <= b + 1e-12)
@@ -276,11 +281,10 @@ class QuasiStaticSim:
 
     def _start_chain(self, length: float) -> None:
         n = max(1, int(math.floor(length / self.ds + 1e-9)))
-        for j in range(n):
-            seg = self.ds if j < n - 1 else length - (n - 1) * self.ds
-            self.phi.append(0.0)
-            self.seg_len.append(seg)
-            self.seg_rad.append(self._radius_between(self.nodes[j], self.nodes[j] + seg))
+        lens = [self.ds if j < n - 1 else length - (n - 1) * self.ds for j in range(n)]
+        self.phi = np.zeros(n)
+        self.seg_len = np.array(lens)
+        self.seg_rad = np.array([self._radius_between(self.nodes[j], self.nodes[j] + lens[j]) for j in range(n)])
         self.length = length
 
     # ---- the joint law at the applied pressure -----------------------------------
@@ -299,7 +303,7 @@ class QuasiStaticSim:
 
     # ---- geometry ------------------------------------------------------------------
     def _all_nodes(self) -> tuple[np.ndarray, np.ndarray]:
-        return qk.chain_nodes(self.base_angle, self.base, np.asarray(self.phi), np.asarray(self.seg_len))
+        return qk.chain_nodes(self.base_angle, self.base, self.phi, self.seg_len)
 
     def centreline(self) -> np.ndarray:
         """Node positions from the base to the tip (m), (n+1) x 2."""
@@ -307,7 +311,7 @@ class QuasiStaticSim:
 
     def radii(self) -> np.ndarray:
         """Collision radius of each segment (m)."""
-        return np.asarray(self.seg_rad)
+        return self.seg_rad.copy()
 
     @property
     def tip_position(self) -> np.ndarray:
@@ -324,12 +328,12 @@ class QuasiStaticSim:
         return np.array([math.cos(a), math.sin(a)])
 
     def joint_angles(self, start: int = 0) -> np.ndarray:
-        return np.asarray(self.phi[start:])
+        return self.phi[start:].copy()
 
     def joint_moments(self, start: int = 0) -> np.ndarray:
         """Joint moments (N m) of joints ``start..`` from the law at the current angles."""
         n = len(self.phi)
-        return qk.joint_moments(np.asarray(self.phi[start:], float), self._k_all[start:n], self._mw_all[start:n], *_LAW[:3], _LAW[3],
+        return qk.joint_moments(self.phi[start:], self._k_all[start:n], self._mw_all[start:n], *_LAW[:3], _LAW[3],
                                 RESIDUAL_STIFFNESS_FRACTION)
 
     def collapse_moments(self, start: int = 0) -> np.ndarray:
@@ -437,14 +441,14 @@ class QuasiStaticSim:
 
     # ---- one growth increment ----------------------------------------------------------
     def _snapshot(self) -> tuple:
-        return (list(self.phi), list(self.seg_len), list(self.seg_rad), self.length, self._u_all.copy(), dict(self._fric),
+        return (self.phi.copy(), self.seg_len.copy(), self.seg_rad.copy(), self.length, self._u_all.copy(), dict(self._fric),
                 self._seg_force.copy(), self._seg_moment.copy(), set(self._contact_segs), self.tip_force, self.tip_contact.copy(),
                 self._tip_clearance, self.active_start, self._mw_used.copy())
 
     def _restore(self, snap: tuple) -> None:
         (phi, seg_len, seg_rad, self.length, u, fric, seg_force, seg_moment, contact_segs, self.tip_force,
          tip_contact, self._tip_clearance, self.active_start, mw_used) = snap
-        self.phi, self.seg_len, self.seg_rad, self._fric = list(phi), list(seg_len), list(seg_rad), dict(fric)
+        self.phi, self.seg_len, self.seg_rad, self._fric = phi.copy(), seg_len.copy(), seg_rad.copy(), dict(fric)
         self._u_all = u.copy()
         self._seg_force, self._seg_moment, self._contact_segs = seg_force.copy(), seg_moment.copy(), set(contact_segs)
         self.tip_contact = tip_contact.copy()
@@ -474,12 +478,18 @@ class QuasiStaticSim:
             dl = min(dl, remaining)
             start = self._snapshot()
             f0 = self.tip_force
+            phi_before = self.phi.copy()
+            self._predict = (self._rate, dl) if self._rate is not None else None
             ok = self._grow(dl) and self._solve()
+            self._predict = None
             if dl > dl_min and (not ok or abs(self.tip_force - f0) > f_step):  # a wall ahead: smaller steps
                 self._restore(start)
                 dl = max(0.5 * dl, dl_min)
                 continue
             if ok and self._required(self.tip_force) <= p * (1 + 1e-9):
+                # the joints' change per metre of growth: the next increment's predicted start
+                now = self.phi
+                self._rate = (now[: len(phi_before)] - phi_before) / dl if len(now) == len(phi_before) else None
                 remaining -= dl
                 dl = min(2.0 * dl, dl_max)
                 self._publish()
@@ -516,21 +526,22 @@ class QuasiStaticSim:
         if seg >= 2 * ds - 1e-12 and j + 1 < len(self.nodes):
             self.seg_len[j] = ds
             self.seg_rad[j] = min(self._radius_between(self.nodes[j], self.nodes[j] + ds), self.seg_rad[j])
-            self.phi.append(0.0)
-            self.seg_len.append(seg - ds)
-            self.seg_rad.append(self.seg_rad[j])
+            self.phi = np.append(self.phi, 0.0)
+            self.seg_len = np.append(self.seg_len, seg - ds)
+            self.seg_rad = np.append(self.seg_rad, self.seg_rad[j])
             self._seg_force = np.vstack([self._seg_force, np.zeros((1, 2))])
             self._seg_moment = np.append(self._seg_moment, 0.0)
             j += 1
         else:
             self.seg_len[j] = seg
-        target = self._radius_between(max(self.nodes[j], self.length - ds), self.length)
-        if target > self.seg_rad[j]:
-            gap = self._segment_gap(j)
-            self.seg_rad[j] = min(target, self.seg_rad[j] + max(0.0, 0.5 * gap) if math.isfinite(gap) else target)
-        else:
-            self.seg_rad[j] = target
-        return self._segment_gap(j) > 0.0
+        if self._near_band(self.length) or self.seg_rad[j] != self._radius_between(self.nodes[j], self.length):
+            target = self._radius_between(max(self.nodes[j], self.length - ds), self.length)
+            if target > self.seg_rad[j]:
+                gap = self._segment_gap(j)
+                self.seg_rad[j] = min(target, self.seg_rad[j] + max(0.0, 0.5 * gap)) if math.isfinite(gap) else target
+            else:
+                self.seg_rad[j] = target
+        return True  # an overlap is found by the solve (its start is then infeasible)
 
     def _publish(self) -> None:
         """Outputs and events after an accepted state."""
@@ -624,7 +635,7 @@ class QuasiStaticSim:
         sf = np.cumsum(self._seg_force[::-1], axis=0)[::-1]
         sm = np.cumsum(self._seg_moment[::-1])[::-1]
         ext = sm[:a] - (nodes[:a, 0] * sf[:a, 1] - nodes[:a, 1] * sf[:a, 0])
-        own = qk.joint_moments(np.asarray(self.phi[:a]), self._k_all[:a], self._mw_used[:a], *_LAW[:3], _LAW[3],
+        own = qk.joint_moments(self.phi[:a], self._k_all[:a], self._mw_used[:a], *_LAW[:3], _LAW[3],
                                RESIDUAL_STIFFNESS_FRACTION)
         bad = np.nonzero(np.abs(own - ext) > tol_m)[0]
         return int(bad[0]) if len(bad) else None
@@ -635,9 +646,9 @@ class QuasiStaticSim:
         nodes, theta = self._all_nodes()
         theta0 = self.base_angle if a == 0 else float(theta[a - 1])
         n0 = nodes[a].copy()
-        phi = np.asarray(self.phi[a:], float)
-        seg_len = np.asarray(self.seg_len[a:], float)
-        seg_rad = np.asarray(self.seg_rad[a:], float)
+        phi = self.phi[a:].copy()
+        seg_len = self.seg_len[a:].copy()
+        seg_rad = self.seg_rad[a:].copy()
         m = len(phi)
         s_nodes = np.append(self.nodes[a : a + m], self.length)
         k_j = np.ascontiguousarray(self._k_all[a : a + m])
@@ -668,13 +679,21 @@ class QuasiStaticSim:
         j_all = self._entry_segments(fric, a)
         in_window = j_all >= a
         mine = in_window & (sel_pos[fric["wall"]] >= 0)
+        phi_ref = phi.copy()
+        if self._predict is not None:  # the last increment's change of the joints, scaled to this one
+            rate, dl = self._predict
+            k = min(len(rate), m)
+            phi[:k] += rate[-k:] * dl if k else 0.0
         (status, iters, res_m, res_f, e_s, e_w, e_wl, e_t, e_ml, acc_f, acc_m, tip, rows) = qk.solve_increment(
-            theta0, n0, phi, seg_len, seg_rad, s_nodes, k_j, mw_j, *_LAW[:3], _LAW[3], RESIDUAL_STIFFNESS_FRACTION,
+            theta0, n0, phi, phi_ref, seg_len, seg_rad, s_nodes, k_j, mw_j, *_LAW[:3], _LAW[3], RESIDUAL_STIFFNESS_FRACTION,
             walls.a[sel], walls.b[sel], wpiece, walls.vertex[sel], walls.radius[sel], walls.friction[sel], robot_mu, pc0, u, kaa, fh,
             travel, k_travel, fric["s"][mine], sel_pos[fric["wall"][mine]], np.ascontiguousarray(fric["wl"][mine]),
             np.ascontiguousarray(fric["t"][mine]), fric["ml"][mine], cfg.barrier_gap_m, self._kappa, cfg.friction_slip_m, tol_m,
             tol_f, cfg.max_newton_iterations, _MAX_MOVE_M, cfg.friction_lag_iterations)
         self._stats.newton_iterations += iters
+        if status == qk.INFEASIBLE_START and self._predict is not None:  # the prediction overlaps a wall: start from rest
+            self._predict = None
+            return self._solve_window(a, tol_m, tol_f)
         if status == qk.INFEASIBLE_START:
             return False
         self._stats.solves += 1
@@ -684,7 +703,7 @@ class QuasiStaticSim:
             self._stats.failures += 1
             self._event("solve_failed", status=int(status), residual=round(ratio, 6))
         # commit the window
-        self.phi[a:] = phi.tolist()
+        self.phi[a:] = phi
         if len(pieces):
             self._u_all[pieces] = u
             for p_, uu in zip(pieces, u):
@@ -705,8 +724,7 @@ class QuasiStaticSim:
         self._contact_segs = {s for s in self._contact_segs if s < a} | {a + int(k) for k in rows[:, 0]}
         self.tip_force = max(0.0, float(tip[0]))
         self.tip_contact = np.array([tip[1], tip[2]])
-        tip_rows = rows[rows[:, 0] == m - 1]
-        self._tip_clearance = float(np.min(tip_rows[:, 10])) if len(tip_rows) else self._segment_gap(n - 1)
+        self._tip_clearance = float(tip[3])
         return True
 
     # ---- lagged friction ------------------------------------------------------------------
