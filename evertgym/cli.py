@@ -297,6 +297,42 @@ def cmd_bench_env(args: argparse.Namespace) -> int:
     return 0
 
 
+def _sim_overrides(text: str | None, extra: dict | None = None) -> dict:
+    """``--sim`` JSON: SimConfig fields, checked (names, ranges, the engine they belong to) before work starts."""
+    try:
+        sim = dict(json.loads(text)) if text else {}
+    except (json.JSONDecodeError, TypeError, ValueError) as e:
+        raise CLIError(f"--sim = {text!r}: expected a JSON object of SimConfig fields ({e})") from None
+    from dataclasses import fields
+
+    from evertgym.sim.config import SimConfig
+
+    unknown = sorted(set(sim) - {f.name for f in fields(SimConfig)})
+    if unknown:
+        raise CLIError(f"--sim: unknown SimConfig fields {unknown}")
+    sim.update(extra or {})
+    try:
+        SimConfig(**sim)
+    except (TypeError, ValueError) as e:
+        raise CLIError(f"--sim: {e}") from None
+    return sim
+
+
+def _float_list(text: str | None, flag: str, lo: float, hi: float, unit: str) -> list[float] | None:
+    """A comma-separated list of numbers in [lo, hi] (``--radii``, ``--reductions``)."""
+    if text is None:
+        return None
+    try:
+        values = [float(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise CLIError(f"{flag} = {text!r}: expected comma-separated numbers, e.g. 30,25") from None
+    if not values:
+        raise CLIError(f"{flag} = {text!r}: expected at least one number")
+    for v in values:
+        _check(flag, v, lo, hi, unit)
+    return values
+
+
 def cmd_diagnose(args: argparse.Namespace) -> int:
     from evertgym.experiments.diagnose import plot_trace, trace_ubend
 
@@ -306,20 +342,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         _check("--casing-friction", args.casing_friction, 0.0, 5.0, "")
     if args.seed < 0:
         raise CLIError(f"--seed = {args.seed!r} is out of range: allowed integers >= 0")
-    try:
-        sim = dict(json.loads(args.sim)) if args.sim else {}
-    except (json.JSONDecodeError, TypeError, ValueError) as e:
-        raise CLIError(f"--sim = {args.sim!r}: expected a JSON object of SimConfig fields ({e})") from None
-    from dataclasses import fields
-
-    from evertgym.sim.config import SimConfig
-
-    unknown = sorted(set(sim) - {f.name for f in fields(SimConfig)})
-    if unknown:
-        raise CLIError(f"--sim: unknown SimConfig fields {unknown}")
-    if args.section_law:
-        sim["section_law"] = True
-    SimConfig(**sim)  # range-checked before the trial starts
+    sim = _sim_overrides(args.sim, {"section_law": True} if args.section_law else None)
     scene_params = {"wall_friction": args.casing_friction} if args.casing_friction is not None else None
     trace = trace_ubend(args.radius_mm, args.reduction, args.seed, sim=sim or None, scene_params=scene_params)
     if args.plot:
@@ -351,11 +374,17 @@ def cmd_reproduce_ubend(args: argparse.Namespace) -> int:
     from evertgym.limits import check_workers
 
     check_workers(args.workers, args.force_workers, "--workers")
-    result = reproduce_ubend(args.db, trials=args.trials, backend=args.backend, workers=args.workers, progress=not args.json)
+    from evertgym.experiments.paper import UBEND_RADII_MM, UBEND_REDUCTIONS
+
+    sim = _sim_overrides(args.sim)
+    radii = _float_list(args.radii, "--radii", 20.0, 40.0, "mm") or UBEND_RADII_MM
+    reductions = _float_list(args.reductions, "--reductions", 0.0, 0.5, "") or UBEND_REDUCTIONS
+    result = reproduce_ubend(args.db, trials=args.trials, backend=args.backend, workers=args.workers, progress=not args.json,
+                             sim=sim or None, radii=radii, reductions=reductions)
     if args.plot:
         plot_ubend(result, args.plot)
     if args.json:
-        out = {"rows": result["rows"]}
+        out = {"rows": result["rows"], "solves": result["solves"]}
         if args.anatomy:
             out["jam_anatomy"] = result["jams"]
         print(dumps(out))
@@ -369,6 +398,11 @@ def cmd_reproduce_ubend(args: argparse.Namespace) -> int:
         cells = [cell[(red, r)] for r in radii]
         name = "no bands" if red == 0 else f"3 x {round(red * 100)}%"
         print(f"{name:>10} " + " ".join(f"{c['successes']:>3}/{c['trials']:<2}" for c in cells) + f" {sum(c['successes'] for c in cells):>6}")
+    sv = result["solves"]
+    if sv["solves"]:
+        print(f"equilibrium solves: {sv['solves']}, ended above the tolerance: {sv['solve_failures']} "
+              f"({100 * sv['failure_share']:.3f}%, in {sv['trials_with_failures']} trials; largest residual "
+              f"{sv['max_residual_ratio']:.2g} of p pi r^2)")
     print(f"time: {result['wall_s']:.1f} s (store: {args.db})")
     if args.anatomy:
         from evertgym.experiments.paper import ubend_jam_table
@@ -381,7 +415,7 @@ def cmd_reproduce_ubend(args: argparse.Namespace) -> int:
 def cmd_reproduce_colon(args: argparse.Namespace) -> int:
     from evertgym.experiments.paper import reproduce_colon
 
-    result = reproduce_colon(args.db, progress=not args.json)
+    result = reproduce_colon(args.db, progress=not args.json, sim=_sim_overrides(args.sim) or None)
     if args.plot:
         from evertgym.experiments.plots import plot_pressure_position
 
@@ -597,6 +631,9 @@ def build_parser() -> argparse.ArgumentParser:
     ru.add_argument("--anatomy", action="store_true",
                     help="also where the failed trials jammed (free span, tip angle, M/Mc at the bands); "
                          "--json adds it under 'jam_anatomy'")
+    ru.add_argument("--sim", default=None, help='SimConfig overrides as JSON, e.g. \'{"engine": "dynamic"}\'')
+    ru.add_argument("--radii", default=None, help="inner radii (mm) to run, comma-separated (default: the paper's 40..20 mm)")
+    ru.add_argument("--reductions", default=None, help="band reductions to run, comma-separated, 0 = no bands (default: 0,0.1,0.2,0.3)")
     ru.set_defaults(func=cmd_reproduce_ubend)
 
     rc = _sub(rep_sub, "colon", "colon phantom case study (Fig. 5d)")
@@ -604,6 +641,7 @@ def build_parser() -> argparse.ArgumentParser:
     rc.add_argument("--db", default="runs/reproduce_colon.sqlite", help="result store (resumable)")
     rc.add_argument("--plot", default=None, help="write the pressure-position plot (PNG) here")
     rc.add_argument("--anatomy", action="store_true", help="also where a stalled robot jammed (--json: each row's 'jam')")
+    rc.add_argument("--sim", default=None, help='SimConfig overrides as JSON, e.g. \'{"engine": "dynamic"}\'')
     rc.set_defaults(func=cmd_reproduce_colon)
 
     rv = _sub(rep_sub, "eversion", "Exp 4: minimum eversion pressure per band reduction, simulated")

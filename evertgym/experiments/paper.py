@@ -113,15 +113,27 @@ def ubend_jam_rows(records) -> list[dict]:
 
 
 def reproduce_ubend(store_path: str | Path, trials: int = 12, backend: str = "process", workers: int | None = None, progress: bool = True,
-                    sim: dict | None = None, radii=UBEND_RADII_MM) -> dict:
+                    sim: dict | None = None, radii=UBEND_RADII_MM, reductions=UBEND_REDUCTIONS) -> dict:
     """Run (or resume) the U-bend table; ``rows`` is the ``--json`` structure of
-    ``evertgym reproduce ubend``, ``jams`` the anatomy of its failed trials per row.
-    ``sim`` overrides :class:`~evertgym.sim.config.SimConfig` fields; ``radii`` picks bend radii."""
+    ``evertgym reproduce ubend``, ``jams`` the anatomy of its failed trials per row, ``solves``
+    the quasi-static engine's solve counts over the run.  ``sim`` overrides
+    :class:`~evertgym.sim.config.SimConfig` fields; ``radii`` and ``reductions`` pick cells."""
     t0 = time.perf_counter()
-    records = _run(ubend_specs(trials, radii=radii, sim=sim), store_path, backend, workers, progress)
+    records = _run(ubend_specs(trials, radii=radii, reductions=reductions, sim=sim), store_path, backend, workers, progress)
     jams = ubend_jam_rows(records)
     rows = [{k: j[k] for k in ("reduction", "radius_mm", "trials", "successes")} for j in jams]
-    return {"rows": rows, "jams": jams, "wall_s": time.perf_counter() - t0}
+    return {"rows": rows, "jams": jams, "wall_s": time.perf_counter() - t0, "solves": solve_totals(records)}
+
+
+def solve_totals(records) -> dict:
+    """Sums of the quasi-static engine's solve counts over trial records: ``solves``,
+    ``solve_failures`` (ended above the tolerance), ``failure_share`` and the largest final
+    residual ratio; empty counts for the dynamic engine."""
+    solves = sum(int(r.result.get("solves", 0)) for r in records)
+    failures = sum(int(r.result.get("solve_failures", 0)) for r in records)
+    worst = max((float(r.result.get("max_residual_ratio", 0.0)) for r in records), default=0.0)
+    return {"solves": solves, "solve_failures": failures, "failure_share": failures / solves if solves else 0.0,
+            "max_residual_ratio": worst, "trials_with_failures": sum(int(r.result.get("solve_failures", 0)) > 0 for r in records)}
 
 
 UBEND_JAM_LEAD = (("design", "design"), ("radius mm", "radius_mm"), ("passed", "passed"))

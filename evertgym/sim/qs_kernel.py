@@ -615,6 +615,55 @@ def _cholesky_solve(hess, rhs, mu0=0.0):
 
 
 @nb.njit(**_JIT)
+def _schur_solve(hess, rhs, m, npc, mu0):
+    """Solve ``(H + mu I) x = rhs`` where the wall pieces' block of ``H`` is block diagonal (each
+    piece an independent spring): the pieces are eliminated (Schur complement on the joints), so
+    the cost grows with the joints, not the pieces.  The shift ``mu`` is the smallest (``mu0``,
+    then growing tenfold) that makes every factor positive definite; returns ``(x, mu)``, ``mu < 0``
+    if none did."""
+    if npc == 0:
+        return _cholesky_solve(hess, rhs, mu0)
+    n = hess.shape[0]
+    diag_max = 0.0
+    for i in range(n):
+        diag_max = max(diag_max, abs(hess[i, i]))
+    mu = mu0
+    for _ in range(40):
+        ok = True
+        schur = hess[:m, :m].copy()
+        r = rhs[:m].copy()
+        for i in range(m):
+            schur[i, i] += mu
+        dinv = np.empty((npc, 3, 3))
+        for p in range(npc):
+            o = m + 3 * p
+            d = hess[o:o + 3, o:o + 3].copy()
+            for i in range(3):
+                d[i, i] += mu
+            low, good = _try_cholesky(d)
+            if not good:
+                ok = False
+                break
+            dinv[p] = np.linalg.inv(d)
+            bp = hess[:m, o:o + 3]
+            if np.any(bp != 0.0):
+                bd = bp @ dinv[p]
+                schur -= bd @ bp.T
+                r -= bd @ rhs[o:o + 3]
+        if ok:
+            xs, shift = _cholesky_solve(schur, r, 0.0)
+            if shift == 0.0:
+                x = np.empty(n)
+                x[:m] = xs
+                for p in range(npc):
+                    o = m + 3 * p
+                    x[o:o + 3] = dinv[p] @ (rhs[o:o + 3] - hess[:m, o:o + 3].T @ xs)
+                return x, mu
+        mu = max(1e-8 * diag_max, 1e-12) if mu == 0.0 else mu * 10.0
+    return np.zeros(n), -1.0
+
+
+@nb.njit(**_JIT)
 def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
           wa, wb, wpiece, wvert, wrad, pc0, u, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0, fr_xw0,
           dhat, kappa, eps_v, tol_m, tol_f, max_iter, max_move, cand):
@@ -652,7 +701,7 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
             return CONVERGED, it, res_m, res_f
         if it == max_iter:
             break
-        step, shift = _cholesky_solve(hess, -grad, 0.1 * shift)
+        step, shift = _schur_solve(hess, -grad, m, npc, 0.1 * shift)
         if shift < 0:
             return LINE_SEARCH_FAILED, it, res_m, res_f
         # limit the step: no joint turns by more than 0.5 rad, no node moves more than max_move
@@ -850,3 +899,22 @@ def solve_increment(theta0, n0, phi, phi_ref, seg_len, seg_rad, s_nodes, k_j, mw
     acc_f, acc_m, tip = segment_forces(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, cand, fr_k, fr_s, e_w, e_wl,
                                        e_t, e_ml, fr_xr0, fr_xw0, dhat, kappa, eps_v)
     return status, iters, res_m, res_f, e_s, e_w, e_wl, e_t, e_ml, acc_f, acc_m, tip, rows
+
+
+@nb.njit(**_JIT)
+def near_features(nodes, seg_rad, box_lo, box_hi, reach):
+    """Mask of the wall features (boxes ``box_lo``, ``box_hi``) within ``reach`` (m) of a segment's
+    box (its nodes grown by its radius): the walls a solve of these segments can touch."""
+    nf = box_lo.shape[0]
+    m = seg_rad.shape[0]
+    out = np.zeros(nf, np.bool_)
+    for k in range(m):
+        g = seg_rad[k] + reach
+        lx = min(nodes[k, 0], nodes[k + 1, 0]) - g
+        hx = max(nodes[k, 0], nodes[k + 1, 0]) + g
+        ly = min(nodes[k, 1], nodes[k + 1, 1]) - g
+        hy = max(nodes[k, 1], nodes[k + 1, 1]) + g
+        for f in range(nf):
+            if not out[f] and box_hi[f, 0] >= lx and box_lo[f, 0] <= hx and box_hi[f, 1] >= ly and box_lo[f, 1] <= hy:
+                out[f] = True
+    return out

@@ -61,10 +61,14 @@ from evertgym.sim.material import material_tables
 _P_SCALE_FLOOR = 1000.0
 #: Extra reach (m) of the wall query beyond the barrier gap: walls a solve can reach.
 _QUERY_MARGIN_M = 0.012
+#: Pieces of a compliant wall within this (m) of a segment, beyond the barrier's reach, are unknowns of a solve.
+_PIECE_MARGIN_M = 0.003
+#: Solves for which a window widened by an out-of-balance held joint stays wide.
+_REJOIN_MEMORY = 50
 #: Largest node displacement (m) of one Newton step (keeps the barrier's line search local).
-_MAX_MOVE_M = 0.004
-#: Bisection steps that cut an increment back to the length where the drive balances the wall.
-_BISECTIONS = 7
+_MAX_MOVE_M = 0.002
+#: Root-finding steps (at most) that cut an increment back to the length where the drive balances the wall.
+_BISECTIONS = 10
 #: Largest change of the tip's reaction against growth over one increment, as a fraction of p pi r^2.
 _FORCE_STEP_FRACTION = 0.05
 #: A pressure change of this fraction (of at least 1 kPa) since the last solve triggers a new one.
@@ -219,11 +223,19 @@ class QuasiStaticSim:
         n_p = len(self._piece_bodies)
         self._pc0 = np.array([tuple(b.position) for b in self._piece_bodies], float).reshape(-1, 2)
         self._u_all = np.zeros((n_p, 3))
-        self._k_wall = np.asarray(net.stiffness_matrix()) if net is not None else np.zeros((0, 0))
+        # each piece an independent spring that translates: the inverse of its own 2 x 2 translational
+        # compliance (its point stiffness with its neighbours and its own rotation free to follow;
+        # the coupling between pieces is dropped); its rotation is held (a stiff spring)
+        comp = np.asarray(net.compliance_matrix) if net is not None else np.zeros((0, 0))
+        self._k_piece = np.zeros((n_p, 3, 3))
+        for i in range(n_p):
+            k2 = np.linalg.inv(comp[3 * i:3 * i + 2, 3 * i:3 * i + 2])
+            self._k_piece[i, :2, :2] = 0.5 * (k2 + k2.T)
+            self._k_piece[i, 2, 2] = 1e3 * float(np.max(k2)) * net.mechanics.piece_length_m**2
         travel = net.mechanics.max_travel_m if net is not None else 0.0
         self._travel = travel
         # the tether stop: 100 x the stiffest piece's own springs (a numerical stop, reported)
-        self._k_travel = 100.0 * float(np.max(np.diag(self._k_wall))) if n_p else 0.0
+        self._k_travel = 100.0 * float(np.max(self._k_piece[:, :2, :2])) if n_p else 0.0
 
         # the body's state: per segment its joint rotation (joint j against segment j - 1; joint 0
         # against the clamp), length and collision radius
@@ -263,6 +275,7 @@ class QuasiStaticSim:
         self._tip_clearance = math.inf
         self._mw_used = np.zeros(len(self.nodes))
         self._predict: tuple[np.ndarray, float] | None = None
+        self._rejoin: tuple[int, int] | None = None  # (joint, solves since) of the last widening
         self._rate: np.ndarray | None = None
         # barrier stiffness: 0.1 x the largest drive (8 kPa pi r^2) per barrier gap (N/m)
         self._kappa = 0.1 * 8000.0 * math.pi * design.radius_m**2 / cfg.barrier_gap_m
@@ -499,16 +512,39 @@ class QuasiStaticSim:
         self._publish()
 
     def _cut_back(self, start: tuple, dl: float, p: float) -> None:
-        """Bisect growth in ``(0, dl)`` from state ``start`` for the longest admissible length at
-        which the tip's required pressure stays within ``p``; leave the body there."""
-        lo, hi, best = 0.0, dl, None
+        """Find, from state ``start``, the growth in ``(0, dl)`` at which the tip's required pressure
+        meets ``p`` (regula falsi, Illinois variant, on ``p_req(L) - p``; a length whose solve
+        overlaps a wall counts as too far) and leave the body there: within ``dl / 128`` of it or
+        with ``|p_req - p|`` below 0.2% of ``p``."""
+        lo, hi = 0.0, dl
+        g_lo = self._required(start[9]) - p
+        g_hi = math.inf
+        best, side = None, 0
         for _ in range(_BISECTIONS):
-            mid = 0.5 * (lo + hi)
-            self._restore(start)
-            if self._grow(mid) and self._solve() and self._required(self.tip_force) <= p * (1 + 1e-9):
-                lo, best = mid, self._snapshot()
+            if math.isfinite(g_hi) and g_hi > g_lo:
+                mid = lo + (hi - lo) * (-g_lo) / (g_hi - g_lo)
+                mid = min(max(mid, lo + 0.05 * (hi - lo)), hi - 0.05 * (hi - lo))
             else:
-                hi = mid
+                mid = 0.5 * (lo + hi)
+            self._restore(start)
+            self._predict = (self._rate, mid) if self._rate is not None else None
+            ok = self._grow(mid) and self._solve()
+            self._predict = None
+            g = self._required(self.tip_force) - p if ok else math.inf
+            if g <= 0:
+                lo, g_lo, best = mid, g, self._snapshot()
+                if side == -1 and math.isfinite(g_hi):
+                    g_hi *= 0.5  # Illinois: the end that stays put is halved
+                side = -1
+                if -g <= 2e-3 * p:
+                    break
+            else:
+                hi, g_hi = mid, g
+                if side == 1:
+                    g_lo *= 0.5
+                side = 1
+            if hi - lo <= dl / 128.0:
+                break
         if best is None:
             self._restore(start)
             self._solve()
@@ -604,10 +640,19 @@ class QuasiStaticSim:
 
     # ---- the equilibrium solve ------------------------------------------------------------
     def _window_start(self) -> int:
-        """The joints within ``active_length_m`` of the tip, and every joint a previous solve had
-        to take back (a free span behind the window stays in it)."""
+        """The joints within ``active_length_m`` of the tip, widened to the most proximal joint that a
+        recent solve had to take back (a free span behind the window stays in for
+        :data:`_REJOIN_MEMORY` solves after it was last needed)."""
         n = len(self.phi)
-        return min(max(0, n - max(2, int(math.ceil(self.cfg.active_length_m / self.ds)))), self.active_start)
+        nominal = max(0, n - max(2, int(math.ceil(self.cfg.active_length_m / self.ds))))
+        if self._rejoin is None:
+            return nominal
+        start, age = self._rejoin
+        if age >= _REJOIN_MEMORY:
+            self._rejoin = None
+            return nominal
+        self._rejoin = (start, age + 1)
+        return min(nominal, start)
 
     def _solve(self) -> bool:
         """Put the window, and any held joint out of balance, in equilibrium; False if the
@@ -623,6 +668,7 @@ class QuasiStaticSim:
                 break
             self._stats.rejoined += a - worst
             a = worst
+            self._rejoin = (a, 0)
         self.active_start = a
         return True
 
@@ -655,18 +701,41 @@ class QuasiStaticSim:
         mw_j = np.ascontiguousarray(self._mw_all[a : a + m])
         walls = self._walls
         sel = self._query_walls(nodes[a:], float(np.max(seg_rad)) + cfg.barrier_gap_m + _QUERY_MARGIN_M)
+        if len(sel):  # of those, the ones near a segment (a bent window's box holds many more)
+            blo, bhi = self._feature_boxes
+            sel = sel[qk.near_features(nodes[a:], seg_rad, blo[sel], bhi[sel], cfg.barrier_gap_m + _QUERY_MARGIN_M)]
         wpiece_g = walls.piece[sel]
-        pieces = np.unique(wpiece_g[wpiece_g >= 0])
+        # the wall pieces the robot is about to touch are unknowns (independent springs); the other
+        # pieces' features are walls held where they are for this solve
+        wa, wb = walls.a[sel].copy(), walls.b[sel].copy()
+        pieces = np.zeros(0, np.int64)
+        if np.any(wpiece_g >= 0):
+            blo, bhi = self._feature_boxes
+            close = qk.near_features(nodes[a:], seg_rad, blo[sel], bhi[sel], cfg.barrier_gap_m + _PIECE_MARGIN_M)
+            pieces = np.unique(wpiece_g[(wpiece_g >= 0) & close])
+            moving = wpiece_g >= 0
+            if np.any(moving):
+                q = self._u_all[wpiece_g[moving]]
+                c, sn = np.cos(q[:, 2]), np.sin(q[:, 2])
+                o = self._pc0[wpiece_g[moving]] + q[:, :2]
+                for arr in (wa, wb):
+                    loc = arr[moving].copy()
+                    arr[moving, 0] = o[:, 0] + c * loc[:, 0] - sn * loc[:, 1]
+                    arr[moving, 1] = o[:, 1] + sn * loc[:, 0] + c * loc[:, 1]
+            solved = np.isin(wpiece_g, pieces)
+            wa[solved], wb[solved] = walls.a[sel][solved], walls.b[sel][solved]  # in the piece's frame
         local = np.full(len(self._piece_bodies) + 1, -1, np.int64)
         local[pieces] = np.arange(len(pieces))
-        wpiece = np.where(wpiece_g >= 0, local[wpiece_g], -1)
+        wpiece = np.where(wpiece_g >= 0, local[np.maximum(wpiece_g, 0)], -1)
+        wpiece[wpiece_g < 0] = -1
         pc0 = self._pc0[pieces] if len(pieces) else np.zeros((0, 2))
         u = self._u_all[pieces] if len(pieces) else np.zeros((0, 3))
         if len(pieces):
             dof = (3 * pieces[:, None] + np.arange(3)[None, :]).ravel()
-            held = np.setdiff1d(np.arange(self._k_wall.shape[0]), dof)
-            kaa = np.ascontiguousarray(self._k_wall[np.ix_(dof, dof)])
-            fh = self._k_wall[np.ix_(dof, held)] @ self._u_all.ravel()[held] if len(held) else np.zeros(len(dof))
+            kaa = np.zeros((len(dof), len(dof)))
+            for i, p_ in enumerate(pieces):
+                kaa[3 * i:3 * i + 3, 3 * i:3 * i + 3] = self._k_piece[p_]
+            fh = np.zeros(len(dof))
             travel = np.full(len(pieces), self._travel)
             k_travel = np.full(len(pieces), self._k_travel)
         else:
@@ -686,7 +755,7 @@ class QuasiStaticSim:
             phi[:k] += rate[-k:] * dl if k else 0.0
         (status, iters, res_m, res_f, e_s, e_w, e_wl, e_t, e_ml, acc_f, acc_m, tip, rows) = qk.solve_increment(
             theta0, n0, phi, phi_ref, seg_len, seg_rad, s_nodes, k_j, mw_j, *_LAW[:3], _LAW[3], RESIDUAL_STIFFNESS_FRACTION,
-            walls.a[sel], walls.b[sel], wpiece, walls.vertex[sel], walls.radius[sel], walls.friction[sel], robot_mu, pc0, u, kaa, fh,
+            wa, wb, wpiece, walls.vertex[sel], walls.radius[sel], walls.friction[sel], robot_mu, pc0, u, kaa, fh,
             travel, k_travel, fric["s"][mine], sel_pos[fric["wall"][mine]], np.ascontiguousarray(fric["wl"][mine]),
             np.ascontiguousarray(fric["t"][mine]), fric["ml"][mine], cfg.barrier_gap_m, self._kappa, cfg.friction_slip_m, tol_m,
             tol_f, cfg.max_newton_iterations, _MAX_MOVE_M, cfg.friction_lag_iterations)
@@ -705,11 +774,13 @@ class QuasiStaticSim:
         # commit the window
         self.phi[a:] = phi
         if len(pieces):
+            self._u_all[:] = 0.0  # a piece nothing pushes is at rest
             self._u_all[pieces] = u
-            for p_, uu in zip(pieces, u):
-                body = self._piece_bodies[int(p_)]
-                body.position = tuple(self._pc0[p_] + uu[:2])
-                body.angle = float(uu[2])
+        elif len(self._piece_bodies) and np.any(self._u_all):
+            self._u_all[:] = 0.0  # nothing pushes the wall: it is at rest
+        for body, pc, uu in zip(self._piece_bodies, self._pc0, self._u_all):
+            body.position = (pc[0] + uu[0], pc[1] + uu[1])
+            body.angle = float(uu[2])
         keep = ~in_window
         self._fric = {"s": np.concatenate([fric["s"][keep], e_s]), "wall": np.concatenate([fric["wall"][keep], sel[e_w]]),
                       "wl": np.concatenate([fric["wl"][keep], e_wl]), "t": np.concatenate([fric["t"][keep], e_t]),
