@@ -143,6 +143,18 @@ def _pair(ax, ay, bx, by, cx, cy, dx, dy, is_vertex):
 
 
 @nb.njit(**_JIT)
+def _point_point(s, qx, qy, cx, cy, dx, dy, is_vertex):
+    """Whether a pair's closest points are two points (a wall vertex at a robot node, or a robot
+    node at a wall segment's end): its distance then curves, ``(I - n n^T) / dist``."""
+    if is_vertex:
+        return s <= 0.0 or s >= 1.0
+    ux = dx - cx
+    uy = dy - cy
+    t = ((qx - cx) * ux + (qy - cy) * uy) / (ux * ux + uy * uy)
+    return t <= 1e-12 or t >= 1.0 - 1e-12
+
+
+@nb.njit(**_JIT)
 def chain_nodes(theta0: float, n0: np.ndarray, phi: np.ndarray, seg_len: np.ndarray):
     """Node positions (m + 1, 2) and segment directions (m,) of the window."""
     m = phi.shape[0]
@@ -396,7 +408,7 @@ def _rank1(hess, smat, m, k, px, py, nodes, dirx, diry, piece, pc_x, pc_y, wx, w
 
 @nb.njit(**_JIT)
 def _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, pairs, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0, fr_xw0,
-                   dhat, kappa, eps_v, grad, hess, smat, want_hess):
+                   dhat, kappa, eps_v, grad, hess, smat, va, vf, want_hess):
     """Barrier and lagged-friction forces of the window: per segment the sums of the force on the
     robot ``f`` (N), of ``p x f`` (N m) and of ``f . p`` (N m); the wall pieces' generalised forces
     go into ``grad[m:]``, the rank-one Hessian terms into ``hess`` (if ``want_hess``).  Also the
@@ -436,6 +448,44 @@ def _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0,
             grad[o + 2] += (qx - ccx) * fmag * ny - (qy - ccy) * fmag * nx
         if want_hess:
             _rank1(hess, smat, m, k, px, py, nodes, nx, ny, p, ccx, ccy, qx, qy, kappa * b2)
+            if wvert[w] and 0.0 < s < 1.0:
+                # a wall vertex against the segment's side: the distance to a line that turns with the
+                # joints, d2D/dphi_i dphi_j = n . (p - n_min(i,j)) - D, replaces the material point's
+                # -n . (p - n_max(i,j)) (the contact point slides along the segment)
+                fx = fmag * nx
+                fy = fmag * ny
+                acc_fx[k] -= fx * px + fy * py
+                va[k] += -(fx * px + fy * py) + fmag * dist
+                vf[k, 0] += fx
+                vf[k, 1] += fy
+                if p >= 0:  # the vertex moves with its piece; the line turns with the joints
+                    o = m + 3 * p
+                    hx = -ny * fmag
+                    hy = nx * fmag
+                    hr = fmag * (nx * (qx - ccx) + ny * (qy - ccy))
+                    for j in range(k + 1):
+                        hess[j, o] += hx
+                        hess[o, j] += hx
+                        hess[j, o + 1] += hy
+                        hess[o + 1, j] += hy
+                        hess[j, o + 2] += hr
+                        hess[o + 2, j] += hr
+                    hess[o + 2, o + 2] -= hr
+            elif _point_point(s, qx, qy, cx, cy, dx, dy, wvert[w]):  # the normal turns as p moves across
+                _rank1(hess, smat, m, k, px, py, nodes, -ny, nx, p, ccx, ccy, qx, qy, kappa * b1 / dist)
+            elif p >= 0:
+                # a robot node against the side of a piece's segment: the line turns with the piece,
+                # D = R(theta) n0 . (x - c - u)
+                o = m + 3 * p
+                hess[o, o + 2] -= fmag * ny
+                hess[o + 2, o] -= fmag * ny
+                hess[o + 1, o + 2] += fmag * nx
+                hess[o + 2, o + 1] += fmag * nx
+                hess[o + 2, o + 2] += fmag * (nx * (px - ccx) + ny * (py - ccy))
+                for j in range(k + 1):
+                    hj = -fmag * (nx * (px - nodes[j, 0]) + ny * (py - nodes[j, 1]))
+                    hess[j, o + 2] += hj
+                    hess[o + 2, j] += hj
     for c in range(fr_k.shape[0]):
         k = fr_k[c]
         s = fr_s[c]
@@ -478,7 +528,7 @@ def segment_forces(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wra
     near = pair_rows(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, cand, dhat, 0.0)
     pairs = _rows_to_pairs(near)
     acc_f, acc_m, _, tip = _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, pairs, fr_k, fr_s, fr_w, fr_wl, fr_t,
-                                          fr_mulam, fr_xr0, fr_xw0, dhat, kappa, eps_v, grad, np.zeros((1, 1)), np.zeros((m, 3, 3)), False)
+                                          fr_mulam, fr_xr0, fr_xw0, dhat, kappa, eps_v, grad, np.zeros((1, 1)), np.zeros((m, 3, 3)), np.zeros(m), np.zeros((m, 2)), False)
     # the tip segment's clearance among the candidates (inf if none)
     tip_rows = pair_rows(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, cand, dhat, 1.0)
     for i in range(tip_rows.shape[0]):
@@ -515,8 +565,10 @@ def grad_hess(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi
             hess[j, j] += dmj
     nodes, theta = chain_nodes(theta0, n0, phi, seg_len)
     smat = np.zeros((m, 3, 3))
+    va = np.zeros(m)
+    vf = np.zeros((m, 2))
     acc_f, acc_m, acc_fx, _ = _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, pairs, fr_k, fr_s, fr_w, fr_wl, fr_t,
-                                             fr_mulam, fr_xr0, fr_xw0, dhat, kappa, eps_v, grad, hess, smat, want_hess)
+                                             fr_mulam, fr_xr0, fr_xw0, dhat, kappa, eps_v, grad, hess, smat, va, vf, want_hess)
     # generalised forces of the contact and friction forces on the joints: suffix sums
     sfx = 0.0
     sfy = 0.0
@@ -534,6 +586,9 @@ def grad_hess(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi
     if want_hess:
         for k in range(m - 2, -1, -1):  # suffix sums: the contacts on segments >= k
             smat[k] += smat[k + 1]
+            va[k] += va[k + 1]
+            vf[k, 0] += vf[k + 1, 0]
+            vf[k, 1] += vf[k + 1, 1]
         for i in range(m):
             wi1 = -nodes[i, 0]
             wi2 = nodes[i, 1]
@@ -544,7 +599,7 @@ def grad_hess(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi
                 val = (sm_[0, 0] + sm_[0, 1] * wj1 + sm_[0, 2] * wj2
                        + wi1 * (sm_[1, 0] + sm_[1, 1] * wj1 + sm_[1, 2] * wj2)
                        + wi2 * (sm_[2, 0] + sm_[2, 1] * wj1 + sm_[2, 2] * wj2))
-                val += gsum[j]
+                val += gsum[j] + va[j] + vf[j, 0] * nodes[i, 0] + vf[j, 1] * nodes[i, 1]
                 hess[i, j] += val
                 if j != i:
                     hess[j, i] += val
@@ -647,9 +702,9 @@ def _schur_solve(hess, rhs, m, npc, mu0):
             dinv[p] = np.linalg.inv(d)
             bp = hess[:m, o:o + 3]
             if np.any(bp != 0.0):
-                bd = bp @ dinv[p]
+                bd = np.ascontiguousarray(bp) @ dinv[p]
                 schur -= bd @ bp.T
-                r -= bd @ rhs[o:o + 3]
+                r -= bd @ np.ascontiguousarray(rhs[o:o + 3])
         if ok:
             xs, shift = _cholesky_solve(schur, r, 0.0)
             if shift == 0.0:
@@ -657,7 +712,7 @@ def _schur_solve(hess, rhs, m, npc, mu0):
                 x[:m] = xs
                 for p in range(npc):
                     o = m + 3 * p
-                    x[o:o + 3] = dinv[p] @ (rhs[o:o + 3] - hess[:m, o:o + 3].T @ xs)
+                    x[o:o + 3] = dinv[p] @ (rhs[o:o + 3] - np.ascontiguousarray(hess[:m, o:o + 3].T) @ xs)
                 return x, mu
         mu = max(1e-8 * diag_max, 1e-12) if mu == 0.0 else mu * 10.0
     return np.zeros(n), -1.0

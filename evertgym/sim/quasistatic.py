@@ -65,6 +65,8 @@ _QUERY_MARGIN_M = 0.012
 _PIECE_MARGIN_M = 0.003
 #: Solves for which a window widened by an out-of-balance held joint stays wide.
 _REJOIN_MEMORY = 50
+#: Chord tolerance (m) of a compliant piece's outline as a contact feature.
+_PIECE_OUTLINE_TOLERANCE_M = 1e-4
 #: Largest node displacement (m) of one Newton step (keeps the barrier's line search local).
 _MAX_MOVE_M = 0.002
 #: Root-finding steps (at most) that cut an increment back to the length where the drive balances the wall.
@@ -108,26 +110,36 @@ class _Walls:
 
 
 def _read_walls(handles, piece_index: dict) -> _Walls:
-    segs = [sh for sh in getattr(handles, "shapes", []) if isinstance(sh, pymunk.Segment)]
+    """The walls of a scene's pymunk handles as features: the static segments as built, and each
+    compliant piece's outline re-simplified at :data:`_PIECE_OUTLINE_TOLERANCE_M` (its shapes are
+    drawn at 0.02 mm; the contact barrier acts over a millimetre)."""
+    from evertgym.scenes.compliant import WALL_FRICTION
+    from evertgym.scenes.geometry import simplify
+
     rows: list[tuple] = []  # (ax, ay, bx, by, piece, vertex, radius, friction)
-    index: dict[int, list[int]] = {}
+    net = getattr(handles, "network", None)
+    chains: list[tuple[list, int, float, float]] = []
+    for sh in getattr(handles, "shapes", []):
+        if isinstance(sh, pymunk.Segment) and piece_index.get(id(sh.body), -1) < 0:
+            chains.append(([tuple(sh.a), tuple(sh.b)], -1, sh.radius, sh.friction))
+    if net is not None:
+        for i, outline in enumerate(net.outline):
+            pts = np.asarray(outline, float)
+            chains.append(([tuple(q) for q in pts[simplify(pts, _PIECE_OUTLINE_TOLERANCE_M)]], i, net.shape_radius, WALL_FRICTION))
     vertices: dict[tuple, int] = {}
-    for sh in segs:
-        p = piece_index.get(id(sh.body), -1)
-        index[id(sh)] = [len(rows)]
-        rows.append((sh.a.x, sh.a.y, sh.b.x, sh.b.y, p, False, sh.radius, sh.friction))
-    for sh in segs:
-        p = piece_index.get(id(sh.body), -1)
-        for pt in (sh.a, sh.b):
-            key = (p, round(pt.x, 9), round(pt.y, 9))
+    for pts, p, rad, mu in chains:
+        for a, b in zip(pts[:-1], pts[1:]):
+            rows.append((a[0], a[1], b[0], b[1], p, False, rad, mu))
+    for pts, p, rad, mu in chains:
+        for q in pts:
+            key = (p, round(q[0], 9), round(q[1], 9))
             if key not in vertices:
                 vertices[key] = len(rows)
-                rows.append((pt.x, pt.y, pt.x, pt.y, p, True, sh.radius, sh.friction))
-            index[id(sh)].append(vertices[key])
+                rows.append((q[0], q[1], q[0], q[1], p, True, rad, mu))
     arr = np.array([r[:4] for r in rows], float).reshape(-1, 4)
     return _Walls(arr[:, :2].copy(), arr[:, 2:].copy(), np.array([r[4] for r in rows], np.int64),
                   np.array([r[5] for r in rows], np.bool_), np.array([r[6] for r in rows], float),
-                  np.array([r[7] for r in rows], float), index)
+                  np.array([r[7] for r in rows], float), {})
 
 
 @dataclass
