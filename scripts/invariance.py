@@ -10,6 +10,7 @@ start from an empty ``--out`` after a change to the physics.
 
     python scripts/invariance.py                                   # full size: 30+ min on 2 cores
     python scripts/invariance.py --trials 1 --episodes 2 --radii 40,20 --out runs/invariance_tiny
+    python scripts/invariance.py --engine quasistatic --out runs/invariance_qs   # issue 25: its own settings and criteria
 """
 
 from __future__ import annotations
@@ -23,7 +24,15 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from evertgym.experiments.invariance import SETTINGS, format_table, run_invariance, ubend_table  # noqa: E402
+from evertgym.experiments.invariance import (  # noqa: E402
+    CRITERIA,
+    QUASISTATIC_CRITERIA,
+    QUASISTATIC_SETTINGS,
+    SETTINGS,
+    format_table,
+    run_invariance,
+    ubend_table,
+)
 from evertgym.experiments.paper import UBEND_RADII_MM  # noqa: E402
 
 
@@ -38,16 +47,19 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--progress", action="store_true", help="progress bars on stderr")
     ap.add_argument("--json", action="store_true", help="print the result as JSON instead of tables")
+    ap.add_argument("--engine", choices=["dynamic", "quasistatic"], default="dynamic",
+                    help="the engine whose numerical settings are varied (its own settings and criteria)")
     args = ap.parse_args(argv)
+    all_settings, criteria = (QUASISTATIC_SETTINGS, QUASISTATIC_CRITERIA) if args.engine == "quasistatic" else (SETTINGS, CRITERIA)
     radii = tuple(float(r) for r in args.radii.split(",") if r)
     wanted = {s for s in args.settings.split(",") if s}
-    unknown = wanted - {n for n, _ in SETTINGS}
+    unknown = wanted - {n for n, _ in all_settings}
     if unknown:
-        ap.error(f"unknown settings {sorted(unknown)}: allowed {[n for n, _ in SETTINGS]}")
-    settings = tuple(s for i, s in enumerate(SETTINGS) if i == 0 or not wanted or s[0] in wanted)
+        ap.error(f"unknown settings {sorted(unknown)}: allowed {[n for n, _ in all_settings]}")
+    settings = tuple(s for i, s in enumerate(all_settings) if i == 0 or not wanted or s[0] in wanted)
     t0 = time.perf_counter()
     result = run_invariance(args.out, trials=args.trials, episodes=args.episodes, radii=radii, settings=settings,
-                            workers=args.workers, progress=args.progress)
+                            workers=args.workers, progress=args.progress, criteria=criteria)
     result["wall_s"] = time.perf_counter() - t0
     if args.json:
         print(json.dumps(result, indent=1))
@@ -56,6 +68,10 @@ def main(argv: list[str] | None = None) -> dict:
         print()
         print("U-bend passes per setting:")
         print(ubend_table(result))
+        for name, sv in result["solves"].items():
+            if sv.get("solves"):
+                print(f"{name}: {sv['solves']} equilibrium solves over the U-bend table, {sv['solve_failures']} ended above the "
+                      f"tolerance ({100 * sv['failure_share']:.3f}%)")
         print(f"\n({result['wall_s']:.0f} s; stores in {args.out})")
     return result
 

@@ -109,8 +109,8 @@ class _Walls:
     index: dict
 
 
-def _read_walls(handles, piece_index: dict) -> _Walls:
-    """The walls of a scene's pymunk handles as features: the static segments as built, and each
+def _read_walls(space: pymunk.Space, handles, piece_index: dict) -> _Walls:
+    """The walls a scene built into ``space`` as features: its static segments as built, and each
     compliant piece's outline re-simplified at :data:`_PIECE_OUTLINE_TOLERANCE_M` (its shapes are
     drawn at 0.02 mm; the contact barrier acts over a millimetre)."""
     from evertgym.scenes.compliant import WALL_FRICTION
@@ -119,8 +119,8 @@ def _read_walls(handles, piece_index: dict) -> _Walls:
     rows: list[tuple] = []  # (ax, ay, bx, by, piece, vertex, radius, friction)
     net = getattr(handles, "network", None)
     chains: list[tuple[list, int, float, float]] = []
-    for sh in getattr(handles, "shapes", []):
-        if isinstance(sh, pymunk.Segment) and piece_index.get(id(sh.body), -1) < 0:
+    for sh in space.shapes:
+        if isinstance(sh, pymunk.Segment) and sh.body.body_type == pymunk.Body.STATIC and piece_index.get(id(sh.body), -1) < 0:
             chains.append(([tuple(sh.a), tuple(sh.b)], -1, sh.radius, sh.friction))
     if net is not None:
         for i, outline in enumerate(net.outline):
@@ -219,7 +219,7 @@ class QuasiStaticSim:
         handles = self.scene_handles
         self._piece_bodies: list[pymunk.Body] = list(getattr(handles, "bodies", []) or [])
         piece_index = {id(b): i for i, b in enumerate(self._piece_bodies)}
-        self._walls = _read_walls(handles, piece_index)
+        self._walls = _read_walls(self.space, handles, piece_index)
         w = self._walls
         world_a = w.a + np.where(w.piece[:, None] >= 0, 0.0, 0.0)
         ends = [w.a, w.b]

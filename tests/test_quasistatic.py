@@ -1,0 +1,115 @@
+"""The quasi-static engine (issue 25): equilibrium per growth increment, frictional contact,
+no mass or inertia settings, solve counts reported, answers that do not move with its own
+numerical settings."""
+
+from __future__ import annotations
+
+import math
+import re
+
+import numpy as np
+import pytest
+from test_sim import grow_into_inclined_wall
+
+from evertgym.design import Band, TubeDesign
+from evertgym.scenes import SceneSpec, make_scene
+from evertgym.sim import EversionSim, SimConfig
+from evertgym.sim.quasistatic import QuasiStaticSim
+
+QS = SimConfig(engine="quasistatic")
+F_REF_3KPA = 3000.0 * math.pi * 0.02**2  # p pi r^2 of the 40 mm robot at 3 kPa (N)
+
+
+def test_the_engine_switch_builds_the_quasistatic_engine():
+    sim = EversionSim(TubeDesign(length_m=0.2), config=QS)
+    assert isinstance(sim, QuasiStaticSim) and sim.engine == "quasistatic"
+    assert EversionSim(TubeDesign(length_m=0.2)).engine == SimConfig().engine
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    (dict(engine="implicit"), "engine = 'implicit' is out of range: allowed 'quasistatic' or 'dynamic'"),
+    (dict(engine="quasistatic", mass_ratio=0.1), "mass_ratio = 0.1 means nothing to engine 'quasistatic'"),
+    (dict(engine="quasistatic", dormant_walls=True), "dormant_walls = True means nothing to engine 'quasistatic'"),
+    (dict(engine="dynamic", growth_increment_m=0.0005), "growth_increment_m = 0.0005 means nothing to engine 'dynamic'"),
+    (dict(engine="quasistatic", growth_increment_m=0.02), "growth_increment_m = 0.02 is out of range"),
+    (dict(engine="quasistatic", solver_tolerance=0.0), "solver_tolerance = 0.0 is out of range"),
+    (dict(engine="quasistatic", section_law=True), "section_law = True is out of range for engine 'quasistatic'"),
+])
+def test_settings_foreign_to_the_engine_are_refused_in_one_line(kwargs, message):
+    with pytest.raises(ValueError, match=re.escape(message)) as err:
+        SimConfig(**kwargs)
+    assert "\n" not in str(err.value)
+
+
+def test_free_growth_stays_straight_and_follows_the_rate_law():
+    sim = EversionSim(TubeDesign(length_m=0.6, bands=(Band(0.3, 0.2),)), config=QS)
+    p = float(sim.threshold(0.0)) + 15.0  # just above the bare threshold: v = K (p - p_y)
+    sim.set_pressure_command(p)
+    sim.run(2.0)
+    expected = QS.growth_gain_m_per_s_per_pa * (p - float(sim.threshold(0.0)))
+    assert sim.growth_speed == pytest.approx(expected, rel=0.02)
+    line = sim.centreline()
+    assert np.max(np.abs(line[:, 1])) < 1e-9  # nothing bends it
+    assert sim.solve_stats["solve_failures"] == 0
+
+
+@pytest.mark.parametrize("wall_deg", [45.0, 60.0])
+def test_the_tip_slides_along_an_oblique_wall(wall_deg):
+    """Incidence 45 and 30 degrees from the wall's normal, outside the tip's friction cone
+    (0.2: 11 degrees): the tip turns and grows along the wall, every solve converged, and the
+    wall never pushes harder than the tube can (1.5 p pi r^2)."""
+    sim, heading = grow_into_inclined_wall(wall_deg, QS)
+    assert sim.length == pytest.approx(0.3) and heading == pytest.approx(wall_deg, abs=5.0)
+    assert 0.2 * F_REF_3KPA < sim.max_contact_force <= 1.5 * F_REF_3KPA
+    assert sim.solve_stats["solve_failures"] == 0 and sim.solve_stats["solves"] > 0
+
+
+def test_the_tip_stalls_head_on_at_the_length_where_the_wall_balances_the_drive():
+    """Incidence 10 degrees (inside the cone): the robot stalls against the wall, 100 mm ahead,
+    its tip at the wall less its radius, the wall's reaction on it the drive it has."""
+    sim, heading = grow_into_inclined_wall(80.0, QS)
+    assert sim.stalled and abs(heading) < 5.0
+    assert 0.075 < sim.length < 0.0805
+    assert sim.required_pressure() == pytest.approx(3000.0, rel=0.01)
+    assert sim.max_contact_force <= 1.5 * F_REF_3KPA
+
+
+def test_ubend_trial_converges_and_does_not_move_with_the_increment():
+    """The bare paper robot through a 30 mm U-bend at 3 kPa: every equilibrium converged, and
+    halving the growth increment moves the tip after 6 s by less than 1 mm."""
+    tips = []
+    for inc in (0.001, 0.0005):
+        scene = make_scene(SceneSpec("ubend", {"radius_mm": 30.0}, 0))
+        sim = EversionSim(TubeDesign(length_m=0.9), scene=scene, config=SimConfig(engine="quasistatic", growth_increment_m=inc))
+        sim.set_pressure_command(3000.0)
+        sim.run(6.0)
+        assert sim.solve_stats["solve_failures"] == 0
+        assert sim.max_contact_force <= 1.5 * F_REF_3KPA
+        tips.append(sim.tip_position)
+    assert np.linalg.norm(tips[0] - tips[1]) < 1e-3
+
+
+def test_solve_counts_reach_the_env_info_and_the_trial_record():
+    from evertgym.experiments.paper import ubend_specs
+    from evertgym.experiments.trial import run_trial
+
+    spec = ubend_specs(trials=1, radii=(40.0,), reductions=(0.0,), sim={"engine": "quasistatic"})[0]
+    rec = run_trial(spec)
+    assert rec["engine"] == "quasistatic"
+    assert rec["solves"] > 0 and rec["solve_failures"] == 0 and 0 <= rec["max_residual_ratio"] <= 1e-3
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(1800)
+def test_colon_stall_does_not_move_with_a_1e_9_change_of_the_command():
+    """The bare 20 mm robot at 3 kPa in the colon phantom (compliant walls): a 1e-9 relative change
+    of the command moves its stall by less than 0.1 mm (the dynamic engine: 3 mm, docs/speed.md)."""
+    stalls = []
+    for p in (3000.0, 3000.0 * (1 + 1e-9)):
+        scene = make_scene(SceneSpec("colon", {}, 0))
+        sim = EversionSim(TubeDesign(diameter_m=0.02, length_m=0.8), scene=scene, config=QS)
+        sim.set_pressure_command(p)
+        sim.run(6.0)
+        assert sim.stalled and sim.solve_stats["solve_failures"] == 0
+        stalls.append(sim.length)
+    assert abs(stalls[0] - stalls[1]) < 1e-4
