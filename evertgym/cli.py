@@ -28,7 +28,14 @@ class CLIError(ValueError):
 
 
 class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescriptionHelpFormatter):
-    """Help that shows every option's default and keeps the description's layout."""
+    """Help that shows the default of every option that takes a value (once: not when its
+    help already names it, and not for on/off flags) and keeps the description's layout."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        text = action.help or ""
+        if action.nargs == 0 or action.required or "default" in text:
+            return text
+        return super()._get_help_string(action)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -665,7 +672,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     tr = _sub(sub, "train", "train a pressure policy from a config in agents/")
     tr.add_argument("config", help="a training config, e.g. agents/ubend_ppo.toml")
-    tr.add_argument("--out", default="runs", help="runs folder (default: runs/)")
+    tr.add_argument("--out", default="runs", help="runs folder")
     tr.add_argument("--resume", action="store_true", help="continue from the newest checkpoint")
     tr.add_argument("--seed", type=int, default=None,
                     help="replace the config's seed; the run goes to <out>/<name>_seed<N> (default: the config's seed)")
@@ -685,7 +692,7 @@ def build_parser() -> argparse.ArgumentParser:
                     help="play validation episodes (seeds 2e9 + i) instead of the held-out ones (1e9 + i): neither is ever "
                          "a training scene; choose settings (an action mode, a checkpoint) on these, report on held-out")
     ev.add_argument("--json", action="store_true", help=_JSON_HELP)
-    ev.add_argument("--workers", type=int, default=1, help="processes to spread the episodes over (default 1)")
+    ev.add_argument("--workers", type=int, default=1, help="processes to spread the episodes over")
     ev.add_argument("--force-workers", action="store_true", help="allow more --workers than CPUs")
     ev.add_argument("--trust-model", action="store_true", help="load a model file that is not a shipped policy: model files are code "
                          "(pickles) and run when loaded")
