@@ -427,6 +427,23 @@ def _policy_arg(text: str) -> dict:
         raise CLIError(f"--policy: {e}") from None
 
 
+def _differences(rows: list[dict], names: list[str]) -> list[dict]:
+    """The first of ``names`` against each other one: success-rate difference with its
+    Newcombe 95% interval and verdict (:func:`evertgym.scoring.stats.compare_rates`)."""
+    from evertgym.scoring.stats import compare_rates
+
+    by_name = {r["design_name"]: r for r in rows}
+    first = by_name[names[0]]
+    return [compare_rates(names[0], first["successes"], first["n"], name, by_name[name]["successes"], by_name[name]["n"])
+            for name in names[1:]]
+
+
+def _print_differences(differences: list[dict]) -> None:
+    """One line per comparison: the difference, its interval and the verdict."""
+    for c in differences:
+        print(f"{c['design']} - {c['other']}: {c['difference']:+.2f} [{c['ci_lo']:+.2f}, {c['ci_hi']:+.2f}] (Newcombe 95%); {c['verdict']}")
+
+
 def cmd_score(args: argparse.Namespace) -> int:
     from evertgym.cli_guard import check_score_flags
     from evertgym.design import TubeDesign
@@ -456,6 +473,7 @@ def cmd_score(args: argparse.Namespace) -> int:
         kw = {"address": args.address} if args.address else {"workers": args.workers}
         records = run_trials(specs, run_trial, store, backend=args.backend, progress=not args.json, **kw)
     rows = summarize(records, by="design_name")
+    differences = _differences(rows, list(designs))
     policy = _policy_arg(args.policy)
     policy_text = policy.get("path") or ", ".join([policy["name"]] + [f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"
                                                                       for k, v in policy.items() if k != "name"])
@@ -464,17 +482,20 @@ def cmd_score(args: argparse.Namespace) -> int:
         plot_summary(rows, args.plot, title=f"{scene_text}; policy {policy_text}; "
                                             f"{args.scenes} scenes x {args.trials} trials per design")
     if args.json:
-        print(dumps({"rows": rows}, default=float))
+        print(dumps({"rows": rows, "differences": differences}, default=float))
         return 0
     print(f"policy: {policy_text}")
     print(f"scene:  {scene_text}, seeds 0-{args.scenes - 1}; {args.trials} trials per scene "
           f"(bands +/- {args.band_jitter_mm:g} mm, entry +/- 5 mm), limit {args.max_s:g} s")
     print(f"designs: {len(designs)}, {len(specs)} trials in all")
-    print(f"{'design':>14} {'n':>5} {'success':>8} {'95% CI':>15} {'time_s':>7} {'peak_kpa':>9} {'max_force_n':>11}   (medians)")
-    for r in rows:
+    width = max([14] + [len(name) for name in designs])
+    print(f"{'design':>{width}} {'n':>5} {'success':>8} {'95% CI':>15} {'time_s':>7} {'peak_kpa':>9} {'max_force_n':>11}   (medians)")
+    by_name = {r["design_name"]: r for r in rows}
+    for r in (by_name[name] for name in designs):  # in the order given: the first is the reference
         t, pk, f = ("-" if r.get(k) is None else f"{r[k]:.2f}" for k in ("median_time_s", "median_peak_pressure_kpa", "median_max_contact_force_n"))
         ci = f"[{r['success_ci_lo']:.2f}, {r['success_ci_hi']:.2f}]"
-        print(f"{r['design_name']:>14} {r['n']:>5} {r['success_rate']:>8.2f} {ci:>15} {t:>7} {pk:>9} {f:>11}")
+        print(f"{r['design_name']:>{width}} {r['n']:>5} {r['success_rate']:>8.2f} {ci:>15} {t:>7} {pk:>9} {f:>11}")
+    _print_differences(differences)
     print(f"store: {args.db}" + (f"; plot: {args.plot}" if args.plot else ""))
     return 0
 
@@ -497,11 +518,22 @@ def cmd_optimize(args: argparse.Namespace) -> int:
     if args.json:
         print(dumps(out, default=float))
         return 0
-    print(f"best after {out['trials']} designs: {out['best_params']}")
+    print(f"best after {out['trials']} designs: {_best_design_text(out['best_design'], out['best_params'])}")
     print("held-out scenes:")
     for r in out["held_out"]:
         print(f"  {r['design_name']:>24}: success {r['success_rate']:.2f} [{r['success_ci_lo']:.2f}, {r['success_ci_hi']:.2f}] (n={r['n']})")
+    _print_differences(_differences(out["held_out"], ["best", *(r["design_name"] for r in out["held_out"] if r["design_name"] != "best")]))
     return 0
+
+
+def _best_design_text(design: dict, params: dict) -> str:
+    """The bands the search found; without bands, spacing and reduction are absent, not numbers."""
+    bands = design["bands"]
+    if not bands:
+        return f"no bands (n_bands = {params['n_bands']}; spacing, reduction and last band: absent)"
+    where = ", ".join(f"{b['position_mm']:.0f}" for b in bands)
+    spacing = f", spacing {params['spacing_mm']:.1f} mm" if len(bands) > 1 else ""
+    return f"{len(bands)} band{'s' if len(bands) > 1 else ''} at {where} mm from the base{spacing}, reduction {params['reduction']:.3f}"
 
 
 def cmd_train(args: argparse.Namespace) -> int:

@@ -51,6 +51,7 @@ else:  # pragma: no cover
 import gymnasium as gym
 import numpy as np
 
+from evertgym._extras import require
 from evertgym._validate import check_int
 from evertgym.env.eversion_env import HELD_OUT_SEED_BASE
 
@@ -160,6 +161,7 @@ def train(config_path: str | Path, out_dir: str | Path = "runs", resume: bool = 
     from evertgym.agents.load import require_rl
 
     require_rl("training")
+    require("training (its TensorBoard log)", "tensorboard")
     import torch
     from stable_baselines3 import PPO, SAC
     from stable_baselines3.common.base_class import BaseAlgorithm

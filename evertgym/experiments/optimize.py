@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from evertgym._extras import require
 from evertgym.experiments.sweep import sweep_specs
 from evertgym.experiments.trial import run_trial
 from evertgym.scoring.runner import run_trials
@@ -43,6 +44,7 @@ def optimize_bands(
     backend: str = "process",
     seed: int = 0,
 ) -> dict:
+    require("evertgym optimize (optimize_bands)", "optuna")
     import optuna
 
     if policy not in ("constant", "operator"):
