@@ -537,17 +537,31 @@ def _best_design_text(design: dict, params: dict) -> str:
 
 
 def cmd_train(args: argparse.Namespace) -> int:
-    from evertgym.agents.train import train
+    from evertgym.agents.train import run_status, train
 
-    summary = train(args.config, out_dir=args.out, resume=args.resume, progress=args.progress and not args.json, seed=args.seed)
+    status = run_status(args.config, args.out, args.seed)
+    if status["finished"]:
+        print(f"evertgym: {status['run_dir']} is already trained to {status['n_timesteps']} steps: nothing to do "
+              f"(remove the folder, or pass --out or --seed, to train again)", file=sys.stderr)
+    elif status["checkpoint_steps"] is not None:
+        print(f"evertgym: resuming {status['run_dir']} from its checkpoint at {status['checkpoint_steps']} of "
+              f"{status['n_timesteps']} steps (remove the folder to train from step 0)", file=sys.stderr)
+    elif args.resume:
+        raise CLIError(f"--resume: {status['run_dir']} has no complete checkpoint: allowed without --resume (a fresh run)")
+    summary = train(args.config, out_dir=args.out, resume=None, progress=args.progress and not args.json, seed=args.seed)
     if args.json:
         print(dumps(summary, indent=2))
         return 0
     run_dir = Path(summary["run_dir"])
-    print(f"trained {summary['num_timesteps']} env steps in {summary['train_wall_s'] / 60:.1f} min; model: {run_dir / 'final.zip'} "
-          f"(TensorBoard: tensorboard --logdir {run_dir / 'tb'})")
-    for r in summary.get("eval", []):
-        print(f"  {r['policy'][-40:]:40s} success {r['success_rate']:.2f} [{r['ci_low']:.2f}, {r['ci_high']:.2f}] "
+    if not summary["already_trained"]:
+        print(f"trained {summary['num_timesteps']} env steps in {summary['train_wall_s'] / 60:.1f} min; model: {run_dir / 'final.zip'} "
+              f"(TensorBoard: tensorboard --logdir {run_dir / 'tb'})")
+    else:
+        print(f"{summary['num_timesteps']} env steps; model: {run_dir / 'final.zip'}")
+    rows = summary.get("eval", [])
+    width = max([40] + [len(r["policy"]) for r in rows])
+    for r in rows:
+        print(f"  {r['policy']:{width}s} success {r['success_rate']:.2f} [{r['ci_low']:.2f}, {r['ci_high']:.2f}] "
               f"over {r['episodes']} held-out episodes")
     return 0
 
@@ -565,16 +579,50 @@ def cmd_eval(args: argparse.Namespace) -> int:
         print(dumps({"rows": rows, "seed_base": seed_base}))
         return 0
     print(f"{'validation' if args.validation else 'held-out'} episodes: episode and scene seeds {seed_base}-{seed_base + args.episodes - 1}")
-    print(f"{'policy':30s} {'episodes':>8s} {'success':>8s} {'95% CI':>15s} {'time_to_goal_s':>14s} {'peak_kpa':>9s} "
+    width = max([30] + [len(r["policy"]) for r in rows])  # a name is never cut
+    print(f"{'policy':{width}s} {'episodes':>8s} {'success':>8s} {'95% CI':>15s} {'time_to_goal_s':>14s} {'peak_kpa':>9s} "
           f"{'max_force_n':>11s} {'bend_peak_kpa':>13s} {'peak<bend':>9s}")
     for r in rows:
         print(
-            f"{r['policy'][-30:]:30s} {r['episodes']:>8d} {r['success_rate']:>8.2f} [{r['ci_low']:.2f}, {r['ci_high']:.2f}]".ljust(65)
+            f"{r['policy']:{width}s} {r['episodes']:>8d} {r['success_rate']:>8.2f} [{r['ci_low']:.2f}, {r['ci_high']:.2f}]".ljust(width + 35)
             + f" {r['mean_time_to_goal_s']:>14.2f} {r['mean_peak_pressure_kpa']:>9.2f} {r['mean_max_contact_force_n']:>11.2f}"
             + f" {r['mean_peak_pressure_bend_kpa']:>13.2f} {r['peak_before_bend_episodes']:>9d}"
         )
     print("bend_peak_kpa: peak measured pressure with the tip in the scene's bend (mean over the episodes that reached it); "
           "peak<bend: episodes whose peak came before the bend (start-up or approach)")
+    return 0
+
+
+def cmd_policies(args: argparse.Namespace) -> int:
+    from evertgym.agents.policies import policy_cards
+
+    rows = policy_cards()
+    if args.json:
+        print(dumps({"rows": rows}))
+        return 0
+
+    def shown(path: str | None) -> str:  # relative to here when the file is below this folder
+        if path is None:
+            return "-"
+        p = Path(path)
+        return str(p.relative_to(Path.cwd())) if p.is_relative_to(Path.cwd()) else str(p)
+
+    table = []
+    for r in rows:
+        obs = ", ".join(f"{k}={json.dumps(v)}" for k, v in r["observations"].items()) or "the env's defaults"
+        h = r["held_out"]
+        if h is None:
+            held = "-"
+        else:
+            lag = f", {json.dumps(h['env_kwargs'])}" if h["env_kwargs"] else ""
+            held = f"{h['successes']}/{h['episodes']} [{h['ci_low']:.2f}, {h['ci_high']:.2f}]{lag}"
+        table.append((r["name"], r["env_id"] or "-", obs, "mean" if r["deterministic"] else "sampled", shown(r["config"]), held))
+    head = ("policy", "env", "observations", "actions", "training config", "held-out success (Wilson 95%, eval env kwargs)")
+    widths = [max(len(row[i]) for row in [head, *table]) for i in range(len(head) - 1)]
+    for row in [head, *table]:
+        print("  ".join(f"{c:{w}s}" for c, w in zip(row, widths)) + "  " + row[-1])
+    print("use one by name: evertgym eval NAME --env ENV, evertgym rollout NAME --env ENV --out x.gif, "
+          "load_policy(NAME) in Python (docs/agents.md)")
     return 0
 
 
@@ -705,7 +753,9 @@ def build_parser() -> argparse.ArgumentParser:
     tr = _sub(sub, "train", "train a pressure policy from a config in agents/")
     tr.add_argument("config", help="a training config, e.g. agents/ubend_ppo.toml")
     tr.add_argument("--out", default="runs", help="runs folder")
-    tr.add_argument("--resume", action="store_true", help="continue from the newest checkpoint")
+    tr.add_argument("--resume", action="store_true",
+                    help="insist on continuing from the newest checkpoint (fail without one); without it a run folder "
+                         "with a checkpoint is continued too, a finished run is not trained again")
     tr.add_argument("--seed", type=int, default=None,
                     help="replace the config's seed; the run goes to <out>/<name>_seed<N> (default: the config's seed)")
     tr.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
@@ -729,6 +779,10 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--trust-model", action="store_true", help="load a model file that is not a shipped policy: model files are code "
                          "(pickles) and run when loaded")
     ev.set_defaults(func=cmd_eval)
+
+    po = _sub(sub, "policies", "the shipped trained policies: env, observations, training config, held-out success")
+    po.add_argument("--json", action="store_true", help=_JSON_HELP)
+    po.set_defaults(func=cmd_policies)
 
     ro = _sub(sub, "rollout", "render one episode to a GIF")
     ro.add_argument("policy", help="a baseline (constant, operator, cycle, deflate, tuned; parameters as cycle:low_kpa=0,high_kpa=3), "

@@ -240,6 +240,31 @@ def shipped_policies() -> list[str]:
     return sorted(p.parent.name for p in shipped_dir().glob("*/final.zip"))
 
 
+def policy_cards() -> list[dict]:
+    """One row per shipped policy (:func:`shipped_policies`): ``name``, ``env_id``, the
+    observation flags it was trained with (``observations``), whether it acts by its mean
+    (``deterministic``), its training config (``config``, a path; None if not shipped) and
+    its held-out success (``held_out``: ``episodes``, ``successes``, ``ci_low``,
+    ``ci_high``, the evaluation's ``env_kwargs`` and ``source``, from the shipped
+    ``held_out.json`` written by ``scripts/held_out_index.py``; None if not listed).
+    Only JSON is read: no model is loaded."""
+    from evertgym.env.eversion_env import OBSERVATION_KWARGS
+
+    index = shipped_dir() / "held_out.json"
+    held_out = json.loads(index.read_text(encoding="utf-8"))["policies"] if index.is_file() else {}
+    rows = []
+    for name in shipped_policies():
+        meta = model_meta(shipped_dir() / name / "final.zip")
+        config = shipped_dir() / f"{name}.toml"
+        rows.append({
+            "name": name, "env_id": meta.get("env_id"),
+            "observations": {k: v for k, v in meta.get("env_kwargs", {}).items() if k in OBSERVATION_KWARGS},
+            "deterministic": bool(meta.get("deterministic", True)), "config": str(config) if config.is_file() else None,
+            "held_out": held_out.get(name),
+        })
+    return rows
+
+
 def resolve_policy_path(name_or_path: str | Path) -> Path:
     """``"colon_ppo"`` -> the shipped ``agents/colon_ppo/final.zip``; a run folder -> its
     ``final.zip``; a ``.zip`` path -> itself.  Raises ``ValueError`` naming the shipped ones."""
