@@ -513,7 +513,7 @@ def cmd_optimize(args: argparse.Namespace) -> int:
     out = optimize_bands(
         {"family": args.scene, "params": params}, args.study, args.db, n_trials=args.trials, n_scenes=args.scenes,
         trials_per_scene=args.trials_per_scene, held_out_scenes=args.held_out, budget_kpa=args.budget_kpa,
-        policy=args.policy, backend=args.backend,
+        policy=args.policy, backend=args.backend, progress=not args.json,
     )
     if args.json:
         print(dumps(out, default=float))
