@@ -64,7 +64,7 @@ def test_a_train_interrupted_by_ctrl_c_resumes_when_the_same_command_is_rerun(tm
 
 def test_a_rerun_continues_from_the_checkpoint_and_a_finished_run_is_not_trained_again(tmp_path, capsys):
     pytest.importorskip("stable_baselines3")
-    from evertgym.agents.train import run_status, train
+    from evertgym.agents.train import train
 
     cfg = _tiny_config(tmp_path, n_timesteps=128)
     argv = ["train", str(cfg), "--out", str(tmp_path)]
@@ -74,6 +74,8 @@ def test_a_rerun_continues_from_the_checkpoint_and_a_finished_run_is_not_trained
     with pytest.raises(ValueError, match="already holds a run with a checkpoint at 128 steps"):
         train(cfg, out_dir=tmp_path, resume=False, progress=False)
     _tiny_config(tmp_path, n_timesteps=256)
+    from evertgym.agents.train import run_status
+
     assert run_status(cfg, tmp_path) == {"run_dir": str(tmp_path / "tiny"), "n_timesteps": 256, "checkpoint_steps": 128,
                                          "finished": False}
     assert main(argv) == 0
