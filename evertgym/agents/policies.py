@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import re
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -69,10 +70,12 @@ def observation_fix(model_shape: tuple, env_id: str, env_kwargs: dict) -> dict |
     return None
 
 
-def check_observation_shape(policy: Policy, env, label: str) -> None:
+def check_observation_shape(policy: Policy, env: Any, label: str) -> None:
     """A one-line ``ValueError`` when ``env``'s observations do not have the shape a trained
     ``policy`` takes: both shapes, and the env kwargs that would fix it (``--env-kwargs`` at
     the command line).  Baselines take any observation."""
+    from evertgym.env.eversion_env import OBSERVATION_KWARGS
+
     model = getattr(policy, "model", None)
     if model is None:
         return
@@ -80,17 +83,11 @@ def check_observation_shape(policy: Policy, env, label: str) -> None:
     if want == got:
         return
     env_id = env.spec.id if env.spec is not None else type(env.unwrapped).__name__
-    kwargs = {k: v for k, v in (env.spec.kwargs if env.spec is not None else {}).items() if k in _observation_kwargs()}
+    kwargs = {k: v for k, v in (env.spec.kwargs if env.spec is not None else {}).items() if k in OBSERVATION_KWARGS}
     fix = observation_fix(want, env_id, kwargs) if env.spec is not None else None
     how = (f"pass --env-kwargs '{json.dumps(fix)}' (env_kwargs={fix!r} in Python)" if fix is not None
            else "no observation flag of the env gives that shape: was it trained on another env?")
     raise ValueError(f"policy {label!r} takes observations of shape {want} but {env_id} gives {got}: {how}")
-
-
-def _observation_kwargs() -> tuple[str, ...]:
-    from evertgym.env.eversion_env import OBSERVATION_KWARGS
-
-    return OBSERVATION_KWARGS
 
 
 class SB3Policy(Policy):
