@@ -86,10 +86,10 @@ def optimize_bands(
         with tqdm(total=n_trials, initial=done, desc="optimize", unit="design", disable=not progress) as bar:
 
             def show_best(study, trial) -> None:  # an optuna callback, after every finished design
-                bar.update(1)
                 if any(t.state.name == "COMPLETE" for t in study.trials):
                     b = study.best_trial
-                    bar.set_postfix({"best": f"{b.value:.3f}", "n_bands": b.params["n_bands"], "design": b.number})
+                    bar.set_postfix({"best": f"{b.value:.3f}", "n_bands": b.params["n_bands"], "design": b.number}, refresh=False)
+                bar.update(1)
 
             study.optimize(objective, n_trials=remaining, callbacks=[show_best])
     best = study.best_params
