@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Any
 from urllib.parse import urlsplit
 
-from evertgym._extras import install_hint
+from evertgym._extras import install_hint, require
 
 #: Exit code of every expected error.
 EXIT_USAGE = 2
@@ -193,6 +193,7 @@ def check_policy(flag: str, desc: Any, trust: bool) -> None:
         stats = vecnormalize_path(path)
         for f in (path, stats) if stats.exists() else (path,):
             check_trusted(f, trust or bool(d.get("trust", False)))
+        require("a trained policy", "stable_baselines3", "torch")  # here, not in a trial's worker
         return
     try:
         make_policy(d)

@@ -167,10 +167,12 @@ def test_every_command_that_needs_an_extra_names_it(tmp_path):
         ["train", str(_tiny_config(tmp_path)), "--out", str(tmp_path / "runs")],
         ["score", "--scene", "straight", "--scenes", "1", "--trials", "1", "--policy", "colon_ppo", "--backend", "serial",
          "--db", str(tmp_path / "a.sqlite")],
+        ["score", "--scene", "straight", "--scenes", "1", "--trials", "1", "--policy", str(ROOT / "agents" / "ubend_ppo" / "final.zip"),
+         "--db", str(tmp_path / "b.sqlite")],
         ["optimize", "--trials", "1", "--study", str(tmp_path / "s.sqlite"), "--db", str(tmp_path / "o.sqlite")],
         ["score", "--scene", "straight", "--scenes", "1", "--trials", "1", "--backend", "dask", "--db", str(tmp_path / "d.sqlite")],
     ]
-    extras = ["rl", "rl", "rl", "rl", "design", "cluster"]
+    extras = ["rl", "rl", "rl", "rl", "rl", "design", "cluster"]
     code = f"import json\nCOMMANDS = {commands!r}\n" + _BLOCKED
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=tmp_path)
     assert done.returncode == 0, done.stderr[-3000:]
