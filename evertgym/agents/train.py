@@ -221,6 +221,8 @@ def train(config_path: str | Path, out_dir: str | Path = "runs", resume: bool | 
     if resume is False and status["checkpoint_steps"] is not None:
         raise ValueError(f"resume = False: {run_dir} already holds a run with a checkpoint at {status['checkpoint_steps']} steps: "
                          "allowed resume=None or True to continue it; remove the folder to train from step 0")
+    if resume is False and (run_dir / "final.zip").exists():
+        raise ValueError(f"resume = False: {run_dir} already holds a trained model (final.zip): remove the folder to train from step 0")
     resume = status["checkpoint_steps"] is not None if resume is None else resume
     ckpt_dir = run_dir / "checkpoints"
     ckpt_dir.mkdir(parents=True, exist_ok=True)
