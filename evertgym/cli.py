@@ -433,6 +433,9 @@ def _differences(rows: list[dict], names: list[str]) -> list[dict]:
     from evertgym.scoring.stats import compare_rates
 
     by_name = {r["design_name"]: r for r in rows}
+    names = [name for name in names if name in by_name]  # a design without trials has no rate
+    if not names:
+        return []
     first = by_name[names[0]]
     return [compare_rates(names[0], first["successes"], first["n"], name, by_name[name]["successes"], by_name[name]["n"])
             for name in names[1:]]
@@ -491,7 +494,7 @@ def cmd_score(args: argparse.Namespace) -> int:
     width = max([14] + [len(name) for name in designs])
     print(f"{'design':>{width}} {'n':>5} {'success':>8} {'95% CI':>15} {'time_s':>7} {'peak_kpa':>9} {'max_force_n':>11}   (medians)")
     by_name = {r["design_name"]: r for r in rows}
-    for r in (by_name[name] for name in designs):  # in the order given: the first is the reference
+    for r in (by_name[name] for name in designs if name in by_name):  # in the order given: the first is the reference
         t, pk, f = ("-" if r.get(k) is None else f"{r[k]:.2f}" for k in ("median_time_s", "median_peak_pressure_kpa", "median_max_contact_force_n"))
         ci = f"[{r['success_ci_lo']:.2f}, {r['success_ci_hi']:.2f}]"
         print(f"{r['design_name']:>{width}} {r['n']:>5} {r['success_rate']:>8.2f} {ci:>15} {t:>7} {pk:>9} {f:>11}")
