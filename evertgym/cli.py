@@ -28,7 +28,14 @@ class CLIError(ValueError):
 
 
 class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescriptionHelpFormatter):
-    """Help that shows every option's default and keeps the description's layout."""
+    """Help that shows the default of every option that takes a value (once: not when its
+    help already names it, and not for on/off flags) and keeps the description's layout."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        text = action.help or ""
+        if action.nargs == 0 or action.required or "default" in text:
+            return text
+        return super()._get_help_string(action)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -454,6 +461,26 @@ def _policy_arg(text: str) -> dict:
         raise CLIError(f"--policy: {e}") from None
 
 
+def _differences(rows: list[dict], names: list[str]) -> list[dict]:
+    """The first of ``names`` against each other one: success-rate difference with its
+    Newcombe 95% interval and verdict (:func:`evertgym.scoring.stats.compare_rates`)."""
+    from evertgym.scoring.stats import compare_rates
+
+    by_name = {r["design_name"]: r for r in rows}
+    names = [name for name in names if name in by_name]  # a design without trials has no rate
+    if not names:
+        return []
+    first = by_name[names[0]]
+    return [compare_rates(names[0], first["successes"], first["n"], name, by_name[name]["successes"], by_name[name]["n"])
+            for name in names[1:]]
+
+
+def _print_differences(differences: list[dict]) -> None:
+    """One line per comparison: the difference, its interval and the verdict."""
+    for c in differences:
+        print(f"{c['design']} - {c['other']}: {c['difference']:+.2f} [{c['ci_lo']:+.2f}, {c['ci_hi']:+.2f}] (Newcombe 95%); {c['verdict']}")
+
+
 def cmd_score(args: argparse.Namespace) -> int:
     from evertgym.cli_guard import check_score_flags
     from evertgym.design import TubeDesign
@@ -483,6 +510,7 @@ def cmd_score(args: argparse.Namespace) -> int:
         kw = {"address": args.address} if args.address else {"workers": args.workers}
         records = run_trials(specs, run_trial, store, backend=args.backend, progress=not args.json, **kw)
     rows = summarize(records, by="design_name")
+    differences = _differences(rows, list(designs))
     policy = _policy_arg(args.policy)
     policy_text = policy.get("path") or ", ".join([policy["name"]] + [f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"
                                                                       for k, v in policy.items() if k != "name"])
@@ -491,17 +519,20 @@ def cmd_score(args: argparse.Namespace) -> int:
         plot_summary(rows, args.plot, title=f"{scene_text}; policy {policy_text}; "
                                             f"{args.scenes} scenes x {args.trials} trials per design")
     if args.json:
-        print(dumps({"rows": rows}, default=float))
+        print(dumps({"rows": rows, "differences": differences}, default=float))
         return 0
     print(f"policy: {policy_text}")
     print(f"scene:  {scene_text}, seeds 0-{args.scenes - 1}; {args.trials} trials per scene "
           f"(bands +/- {args.band_jitter_mm:g} mm, entry +/- 5 mm), limit {args.max_s:g} s")
     print(f"designs: {len(designs)}, {len(specs)} trials in all")
-    print(f"{'design':>14} {'n':>5} {'success':>8} {'95% CI':>15} {'time_s':>7} {'peak_kpa':>9} {'max_force_n':>11}   (medians)")
-    for r in rows:
+    width = max([14] + [len(name) for name in designs])
+    print(f"{'design':>{width}} {'n':>5} {'success':>8} {'95% CI':>15} {'time_s':>7} {'peak_kpa':>9} {'max_force_n':>11}   (medians)")
+    by_name = {r["design_name"]: r for r in rows}
+    for r in (by_name[name] for name in designs if name in by_name):  # in the order given: the first is the reference
         t, pk, f = ("-" if r.get(k) is None else f"{r[k]:.2f}" for k in ("median_time_s", "median_peak_pressure_kpa", "median_max_contact_force_n"))
         ci = f"[{r['success_ci_lo']:.2f}, {r['success_ci_hi']:.2f}]"
-        print(f"{r['design_name']:>14} {r['n']:>5} {r['success_rate']:>8.2f} {ci:>15} {t:>7} {pk:>9} {f:>11}")
+        print(f"{r['design_name']:>{width}} {r['n']:>5} {r['success_rate']:>8.2f} {ci:>15} {t:>7} {pk:>9} {f:>11}")
+    _print_differences(differences)
     print(f"store: {args.db}" + (f"; plot: {args.plot}" if args.plot else ""))
     return 0
 
@@ -519,30 +550,55 @@ def cmd_optimize(args: argparse.Namespace) -> int:
     out = optimize_bands(
         {"family": args.scene, "params": params}, args.study, args.db, n_trials=args.trials, n_scenes=args.scenes,
         trials_per_scene=args.trials_per_scene, held_out_scenes=args.held_out, budget_kpa=args.budget_kpa,
-        policy=args.policy, backend=args.backend,
+        policy=args.policy, backend=args.backend, progress=not args.json,
     )
     if args.json:
         print(dumps(out, default=float))
         return 0
-    print(f"best after {out['trials']} designs: {out['best_params']}")
+    print(f"best after {out['trials']} designs: {_best_design_text(out['best_design'], out['best_params'])}")
     print("held-out scenes:")
     for r in out["held_out"]:
         print(f"  {r['design_name']:>24}: success {r['success_rate']:.2f} [{r['success_ci_lo']:.2f}, {r['success_ci_hi']:.2f}] (n={r['n']})")
+    _print_differences(_differences(out["held_out"], ["best", *(r["design_name"] for r in out["held_out"] if r["design_name"] != "best")]))
     return 0
 
 
-def cmd_train(args: argparse.Namespace) -> int:
-    from evertgym.agents.train import train
+def _best_design_text(design: dict, params: dict) -> str:
+    """The bands the search found; without bands, spacing and reduction are absent, not numbers."""
+    bands = design["bands"]
+    if not bands:
+        return f"no bands (n_bands = {params['n_bands']}; spacing, reduction and last band: absent)"
+    where = ", ".join(f"{b['position_mm']:.0f}" for b in bands)
+    spacing = f", spacing {params['spacing_mm']:.1f} mm" if len(bands) > 1 else ""
+    return f"{len(bands)} band{'s' if len(bands) > 1 else ''} at {where} mm from the base{spacing}, reduction {params['reduction']:.3f}"
 
-    summary = train(args.config, out_dir=args.out, resume=args.resume, progress=args.progress and not args.json, seed=args.seed)
+
+def cmd_train(args: argparse.Namespace) -> int:
+    from evertgym.agents.train import run_status, train
+
+    status = run_status(args.config, args.out, args.seed)
+    if status["finished"]:
+        print(f"evertgym: {status['run_dir']} is already trained to {status['n_timesteps']} steps: nothing to do "
+              f"(remove the folder, or pass --out or --seed, to train again)", file=sys.stderr)
+    elif status["checkpoint_steps"] is not None:
+        print(f"evertgym: resuming {status['run_dir']} from its checkpoint at {status['checkpoint_steps']} of "
+              f"{status['n_timesteps']} steps (remove the folder to train from step 0)", file=sys.stderr)
+    elif args.resume:
+        raise CLIError(f"--resume: {status['run_dir']} has no complete checkpoint: allowed without --resume (a fresh run)")
+    summary = train(args.config, out_dir=args.out, resume=None, progress=args.progress and not args.json, seed=args.seed)
     if args.json:
         print(dumps(summary, indent=2))
         return 0
     run_dir = Path(summary["run_dir"])
-    print(f"trained {summary['num_timesteps']} env steps in {summary['train_wall_s'] / 60:.1f} min; model: {run_dir / 'final.zip'} "
-          f"(TensorBoard: tensorboard --logdir {run_dir / 'tb'})")
-    for r in summary.get("eval", []):
-        print(f"  {r['policy'][-40:]:40s} success {r['success_rate']:.2f} [{r['ci_low']:.2f}, {r['ci_high']:.2f}] "
+    if not summary["already_trained"]:
+        print(f"trained {summary['num_timesteps']} env steps in {summary['train_wall_s'] / 60:.1f} min; model: {run_dir / 'final.zip'} "
+              f"(TensorBoard: tensorboard --logdir {run_dir / 'tb'})")
+    else:
+        print(f"{summary['num_timesteps']} env steps; model: {run_dir / 'final.zip'}")
+    rows = summary.get("eval", [])
+    width = max([40] + [len(r["policy"]) for r in rows])
+    for r in rows:
+        print(f"  {r['policy']:{width}s} success {r['success_rate']:.2f} [{r['ci_low']:.2f}, {r['ci_high']:.2f}] "
               f"over {r['episodes']} held-out episodes")
     return 0
 
@@ -560,16 +616,50 @@ def cmd_eval(args: argparse.Namespace) -> int:
         print(dumps({"rows": rows, "seed_base": seed_base}))
         return 0
     print(f"{'validation' if args.validation else 'held-out'} episodes: episode and scene seeds {seed_base}-{seed_base + args.episodes - 1}")
-    print(f"{'policy':30s} {'episodes':>8s} {'success':>8s} {'95% CI':>15s} {'time_to_goal_s':>14s} {'peak_kpa':>9s} "
+    width = max([30] + [len(r["policy"]) for r in rows])  # a name is never cut
+    print(f"{'policy':{width}s} {'episodes':>8s} {'success':>8s} {'95% CI':>15s} {'time_to_goal_s':>14s} {'peak_kpa':>9s} "
           f"{'max_force_n':>11s} {'bend_peak_kpa':>13s} {'peak<bend':>9s}")
     for r in rows:
         print(
-            f"{r['policy'][-30:]:30s} {r['episodes']:>8d} {r['success_rate']:>8.2f} [{r['ci_low']:.2f}, {r['ci_high']:.2f}]".ljust(65)
+            f"{r['policy']:{width}s} {r['episodes']:>8d} {r['success_rate']:>8.2f} [{r['ci_low']:.2f}, {r['ci_high']:.2f}]".ljust(width + 35)
             + f" {r['mean_time_to_goal_s']:>14.2f} {r['mean_peak_pressure_kpa']:>9.2f} {r['mean_max_contact_force_n']:>11.2f}"
             + f" {r['mean_peak_pressure_bend_kpa']:>13.2f} {r['peak_before_bend_episodes']:>9d}"
         )
     print("bend_peak_kpa: peak measured pressure with the tip in the scene's bend (mean over the episodes that reached it); "
           "peak<bend: episodes whose peak came before the bend (start-up or approach)")
+    return 0
+
+
+def cmd_policies(args: argparse.Namespace) -> int:
+    from evertgym.agents.policies import policy_cards
+
+    rows = policy_cards()
+    if args.json:
+        print(dumps({"rows": rows}))
+        return 0
+
+    def shown(path: str | None) -> str:  # relative to here when the file is below this folder
+        if path is None:
+            return "-"
+        p = Path(path)
+        return str(p.relative_to(Path.cwd())) if p.is_relative_to(Path.cwd()) else str(p)
+
+    table = []
+    for r in rows:
+        obs = ", ".join(f"{k}={json.dumps(v)}" for k, v in r["observations"].items()) or "the env's defaults"
+        h = r["held_out"]
+        if h is None:
+            held = "-"
+        else:
+            lag = f", {json.dumps(h['env_kwargs'])}" if h["env_kwargs"] else ""
+            held = f"{h['successes']}/{h['episodes']} [{h['ci_low']:.2f}, {h['ci_high']:.2f}]{lag}"
+        table.append((r["name"], r["env_id"] or "-", obs, "mean" if r["deterministic"] else "sampled", shown(r["config"]), held))
+    head = ("policy", "env", "observations", "actions", "training config", "held-out success (Wilson 95%, eval env kwargs)")
+    widths = [max(len(row[i]) for row in [head, *table]) for i in range(len(head) - 1)]
+    for row in [head, *table]:
+        print("  ".join(f"{c:{w}s}" for c, w in zip(row, widths)) + "  " + row[-1])
+    print("use one by name: evertgym eval NAME --env ENV, evertgym rollout NAME --env ENV --out x.gif, "
+          "load_policy(NAME) in Python (docs/agents.md)")
     return 0
 
 
@@ -703,8 +793,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     tr = _sub(sub, "train", "train a pressure policy from a config in agents/")
     tr.add_argument("config", help="a training config, e.g. agents/ubend_ppo.toml")
-    tr.add_argument("--out", default="runs", help="runs folder (default: runs/)")
-    tr.add_argument("--resume", action="store_true", help="continue from the newest checkpoint")
+    tr.add_argument("--out", default="runs", help="runs folder")
+    tr.add_argument("--resume", action="store_true",
+                    help="insist on continuing from the newest checkpoint (fail without one); without it a run folder "
+                         "with a checkpoint is continued too, a finished run is not trained again")
     tr.add_argument("--seed", type=int, default=None,
                     help="replace the config's seed; the run goes to <out>/<name>_seed<N> (default: the config's seed)")
     tr.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
@@ -723,11 +815,15 @@ def build_parser() -> argparse.ArgumentParser:
                     help="play validation episodes (seeds 2e9 + i) instead of the held-out ones (1e9 + i): neither is ever "
                          "a training scene; choose settings (an action mode, a checkpoint) on these, report on held-out")
     ev.add_argument("--json", action="store_true", help=_JSON_HELP)
-    ev.add_argument("--workers", type=int, default=1, help="processes to spread the episodes over (default 1)")
+    ev.add_argument("--workers", type=int, default=1, help="processes to spread the episodes over")
     ev.add_argument("--force-workers", action="store_true", help="allow more --workers than CPUs")
     ev.add_argument("--trust-model", action="store_true", help="load a model file that is not a shipped policy: model files are code "
                          "(pickles) and run when loaded")
     ev.set_defaults(func=cmd_eval)
+
+    po = _sub(sub, "policies", "the shipped trained policies: env, observations, training config, held-out success")
+    po.add_argument("--json", action="store_true", help=_JSON_HELP)
+    po.set_defaults(func=cmd_policies)
 
     ro = _sub(sub, "rollout", "render one episode to a GIF")
     ro.add_argument("policy", help="a baseline (constant, operator, cycle, deflate, tuned; parameters as cycle:low_kpa=0,high_kpa=3), "

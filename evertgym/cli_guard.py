@@ -5,7 +5,7 @@
 package's validation errors (``ValueError`` and its subclasses), missing or unreadable
 files (``OSError``), bad stores (``sqlite3.Error``), unknown env ids (Gymnasium's errors),
 a model the rod solver cannot settle (``RodSolveError``) and missing optional extras
-(``ImportError``).  Anything else is a bug and keeps its traceback.
+(``ImportError``, with the ``pip install 'evertgym[...]'`` that brings the module).  Anything else is a bug and keeps its traceback.
 """
 
 from __future__ import annotations
@@ -24,6 +24,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 from urllib.parse import urlsplit
+
+from evertgym._extras import install_hint, require
 
 #: Exit code of every expected error.
 EXIT_USAGE = 2
@@ -55,6 +57,9 @@ def run_command(func: Callable[[argparse.Namespace], int], args: argparse.Namesp
         return 1
     except _expected_errors() as e:
         text = " ".join(str(e).split()) or type(e).__name__
+        hint = install_hint(e.name or "") if isinstance(e, ModuleNotFoundError) else None
+        if hint and "pip install" not in text:  # an optional module imported without evertgym._extras.require
+            text = f"{text}: this command needs {hint}"
         print(f"evertgym: error: {text}", file=sys.stderr)
         return EXIT_USAGE
 
@@ -177,7 +182,7 @@ def warn_remote_dask(address: str, trusted: bool) -> None:
 def check_policy(flag: str, desc: Any, trust: bool) -> None:
     """A policy description that will load: baselines are built (their parameters checked);
     a saved model must exist and be a shipped policy unless ``trust`` (nothing is unpickled)."""
-    from evertgym.agents.policies import make_policy
+    from evertgym.agents.policies import make_policy, vecnormalize_path
     from evertgym.agents.trust import check_trusted
 
     d = {"name": "agent", "path": desc} if isinstance(desc, str) and desc.endswith(".zip") else desc
@@ -185,9 +190,10 @@ def check_policy(flag: str, desc: Any, trust: bool) -> None:
         d = {"name": "agent", "path": d.partition(".zip:")[0] + ".zip"}
     if isinstance(d, dict) and d.get("name") == "agent":
         path = check_input_file(flag, str(d.get("path", "")))
-        stats = path.with_name(path.stem + "_vecnormalize.pkl")
+        stats = vecnormalize_path(path)
         for f in (path, stats) if stats.exists() else (path,):
             check_trusted(f, trust or bool(d.get("trust", False)))
+        require("a trained policy", "stable_baselines3", "torch")  # here, not in a trial's worker
         return
     try:
         make_policy(d)

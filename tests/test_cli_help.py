@@ -39,8 +39,16 @@ def test_help_shows_defaults_and_choices(argv, parser, capsys):
         if not action.option_strings or action.default is argparse.SUPPRESS or action.help is argparse.SUPPRESS:
             continue
         assert action.help, f"{' '.join(argv)} {action.option_strings[0]} has no help"
-        # every option's line carries its default, and choices are listed
-        assert f"(default: {action.default})" in " ".join(out.split()), f"{' '.join(argv)} {action.option_strings[0]}"
+        name = f"{' '.join(argv)} {action.option_strings[0]}"
+        text = parser._get_formatter()._expand_help(action)
+        # every option that takes a value names its default once; an on/off flag names none
+        # (issue 28: "--no-progress  no progress bar (default: True)", "(default 1) (default: 1)")
+        if action.nargs == 0:
+            assert "default" not in text, f"{name}: {text!r}"
+        elif not action.required:
+            assert text.count("default") == 1, f"{name}: {text!r}"
+            if "(default: " in text and action.default is not None:
+                assert f"(default: {action.default})" in " ".join(out.split()), name
         if action.choices:
             assert "{" + ",".join(map(str, action.choices)) + "}" in out
 

@@ -17,7 +17,7 @@ def test_score_says_which_policy_scene_and_counts(tmp_path, capsys):
     assert "designs: 1, 2 trials in all" in out
     assert (tmp_path / "s.png").stat().st_size > 0
     assert main([*argv, "--json"]) == 0
-    assert set(json.loads(capsys.readouterr().out)) == {"rows"}
+    assert set(json.loads(capsys.readouterr().out)) == {"rows", "differences"}
 
 
 def test_rollout_prints_a_summary_and_json_keeps_every_command(tmp_path, capsys, monkeypatch):

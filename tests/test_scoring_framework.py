@@ -27,6 +27,8 @@ from evertgym.scoring import (
     TrialSpec,
     TrialSpecError,
     check_result,
+    compare_rates,
+    newcombe_interval,
     run_trials,
     summarize,
     wilson_interval,
@@ -154,6 +156,27 @@ def test_wilson_known_values_for_twelve_trials():
     assert wilson_interval(0, 12) == (0.0, pytest.approx(3.8416 / 15.8416, abs=1e-15))
     assert wilson_interval(12, 12) == (pytest.approx(12 / 15.8416, abs=1e-15), 1.0)
     assert wilson_interval(7, 12) == pytest.approx((0.31951, 0.80674), abs=1e-5)
+
+
+@pytest.mark.parametrize(
+    "a, b, d, lo, hi",
+    # Newcombe (1998), Stat. Med. 17:873, Table II, method 10 (hybrid score, no continuity correction)
+    [((56, 70), (48, 80), 0.2, 0.0524, 0.3339), ((9, 10), (3, 10), 0.6, 0.1705, 0.8090), ((6, 7), (2, 7), 4 / 7, 0.0582, 0.8062),
+     ((5, 56), (0, 29), 5 / 56, -0.0381, 0.1926), ((0, 10), (0, 20), 0.0, -0.1611, 0.2775), ((10, 10), (0, 20), 1.0, 0.6791, 1.0)],
+)
+def test_newcombe_difference_matches_the_published_values(a, b, d, lo, hi):
+    assert newcombe_interval(*a, *b) == pytest.approx((d, lo, hi), abs=6e-5)
+
+
+def test_a_verdict_names_a_winner_only_when_the_interval_excludes_zero():
+    win = compare_rates("banded", 56, 70, "bare", 48, 80)
+    assert win["winner"] == "banded" and win["verdict"].startswith("banded succeeds more often than bare")
+    lose = compare_rates("bare", 48, 80, "banded", 56, 70)
+    assert lose["winner"] == "banded" and lose["difference"] == pytest.approx(-0.2) and lose["ci_hi"] < 0
+    tie = compare_rates("a", 5, 56, "b", 0, 29)
+    assert tie["winner"] is None and tie["verdict"].startswith("no clear winner between a and b")
+    with pytest.raises(ValueError, match="successes = 3 is out of range"):
+        newcombe_interval(3, 2, 0, 2)
 
 
 @given(st.integers(1, 500).flatmap(lambda n: st.tuples(st.integers(0, n), st.just(n))))

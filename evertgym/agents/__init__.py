@@ -9,9 +9,9 @@ from evertgym.agents.baselines import (
     pressure_to_action,
 )
 from evertgym.agents.load import load_policy
-from evertgym.agents.policies import make_baseline, make_policy, shipped_policies
+from evertgym.agents.policies import make_baseline, make_policy, policy_cards, shipped_policies
 
 __all__ = [
     "ConstantPressure", "DeflateOnStall", "OperatorProtocol", "Policy", "PressureCycling", "load_policy", "make_baseline", "make_policy",
-    "pressure_to_action", "shipped_policies",
+    "policy_cards", "pressure_to_action", "shipped_policies",
 ]

@@ -15,7 +15,7 @@ import gymnasium as gym
 import numpy as np
 
 from evertgym.agents.baselines import Policy, run_episode
-from evertgym.agents.policies import for_env, make_policy, shipped_policies
+from evertgym.agents.policies import check_observation_shape, for_env, make_policy, shipped_policies
 from evertgym.env.eversion_env import HELD_OUT_SEED_BASE
 from evertgym.limits import MAX_EPISODES
 from evertgym.scoring.backends import process_backend, serial_backend
@@ -80,9 +80,13 @@ def evaluate(policies: list[str | dict], env_id: str, episodes: int, env_kwargs:
     # bad parameter or a missing tuned file fails before any episode, in one line
     descs = [for_env(desc, env_id) for desc in policies]
     models = {"agent", *shipped_policies()}
-    for d in descs:
+    for desc, d in zip(policies, descs):
         if d.get("name") not in models:
             make_policy(d)
+        else:  # a trained model meets its env's observations here, not in a worker's traceback
+            policy, env = _policy_and_env(canonical_json({**d, **({"trust": True} if trust else {})}), env_id,
+                                          canonical_json(dict(env_kwargs or {})))
+            check_observation_shape(policy, env, _label(desc))
     specs = [
         TrialSpec(design={}, design_name=env_id, scene={"family": env_id, "params": dict(env_kwargs or {}), "seed": seed_base + i},
                   policy={**d, **({"trust": True} if trust else {})}, seed=seed_base + i, index=i,

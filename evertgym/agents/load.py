@@ -18,20 +18,16 @@ Loading a policy needs the ``rl`` extra (``pip install 'evertgym[rl]'``).
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
+from evertgym._extras import require
 from evertgym.agents.baselines import Policy
 from evertgym.agents.policies import SB3Policy, resolve_policy_path
 
 
 def require_rl(what: str) -> None:
     """Raise ``ImportError`` naming the ``rl`` extra when stable-baselines3 or PyTorch is missing."""
-    try:
-        import stable_baselines3  # noqa: F401
-        import torch  # noqa: F401
-    except ImportError as e:
-        raise ImportError(f"{what} needs the rl extra (PyTorch, stable-baselines3): pip install 'evertgym[rl]' ({e})") from e
+    require(what, "stable_baselines3", "torch")
 
 
 def load_policy(name_or_path: str | Path, deterministic: bool | None = None,
@@ -41,7 +37,8 @@ def load_policy(name_or_path: str | Path, deterministic: bool | None = None,
     ``name_or_path`` is a shipped policy's name (:func:`shipped_policies`, e.g.
     ``"colon_ppo"``), a run folder or a ``.zip``.  Returns ``(policy, env_id, env_kwargs)``:
     ``gym.make(env_id, **env_kwargs)`` gives the observation the policy expects
-    (``env_id`` is None when no ``<stem>_env.json`` sits beside the model).  The policy
+    (:func:`~evertgym.agents.policies.model_meta`: the ``<stem>_env.json`` beside the model,
+    or a checkpoint's run ``config.json``; ``env_id`` is None without either).  The policy
     has the :class:`~evertgym.agents.baselines.Policy` interface (``reset(env)``,
     ``act(obs, info)``) and applies the model's VecNormalize statistics itself; its SB3
     model is ``policy.model``.  A model that is not a shipped policy loads only with
@@ -50,8 +47,7 @@ def load_policy(name_or_path: str | Path, deterministic: bool | None = None,
     require_rl("load_policy")
     path = resolve_policy_path(name_or_path)
     policy = SB3Policy(path, deterministic, trust=trust)
-    meta = path.with_name(path.stem + "_env.json")
-    env_id = json.loads(meta.read_text()).get("env_id") if meta.exists() else None
+    env_id = policy.env_id
     if env_id is not None:
         _adopt_observation_space(policy.model, env_id, policy.env_kwargs)
     return policy, env_id, dict(policy.env_kwargs)

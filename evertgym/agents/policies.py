@@ -3,17 +3,96 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
+from evertgym._extras import require
 from evertgym.agents.baselines import BASELINES, Policy
 from evertgym.agents.tuned import load_tuned, shipped_dir
 
+_CHECKPOINT = re.compile(r"(?P<prefix>.+)_(?P<steps>\d+)_steps")
+
+
+def vecnormalize_path(path: str | Path) -> Path:
+    """Where a saved model's VecNormalize statistics lie: ``<stem>_vecnormalize.pkl`` beside
+    ``<stem>.zip`` (``final.zip``), or SB3's checkpoint name ``<prefix>_vecnormalize_<N>_steps.pkl``
+    beside a checkpoint ``<prefix>_<N>_steps.zip``.  The file need not exist."""
+    path = Path(path)
+    m = _CHECKPOINT.fullmatch(path.stem)
+    if m and not path.with_name(path.stem + "_vecnormalize.pkl").exists():
+        return path.with_name(f"{m['prefix']}_vecnormalize_{m['steps']}_steps.pkl")
+    return path.with_name(path.stem + "_vecnormalize.pkl")
+
+
+def model_meta(path: str | Path) -> dict:
+    """The env a saved model was trained with: ``{"env_id", "env_kwargs", "deterministic"}``
+    from ``<stem>_env.json`` beside it (shipped policies, a run's ``final.zip`` and its
+    checkpoints), else, for a checkpoint in a run's ``checkpoints/`` folder, from the run's
+    ``config.json`` (runs trained before checkpoints carried their own); ``{}`` without
+    either.  Only JSON is read: nothing is unpickled."""
+    path = Path(path)
+    meta = path.with_name(path.stem + "_env.json")
+    if meta.is_file():
+        return dict(json.loads(meta.read_text(encoding="utf-8")))
+    run_config = path.parent.parent / "config.json"
+    if path.parent.name == "checkpoints" and _CHECKPOINT.fullmatch(path.stem) and run_config.is_file():
+        cfg = json.loads(run_config.read_text(encoding="utf-8")).get("config", {})
+        if "env_id" in cfg:
+            return {"env_id": cfg["env_id"], "env_kwargs": cfg.get("env_kwargs", {}), "deterministic": cfg.get("deterministic", True)}
+    return {}
+
+
+def observation_fix(model_shape: tuple, env_id: str, env_kwargs: dict) -> dict | None:
+    """The observation flags (:data:`~evertgym.env.eversion_env.OBSERVATION_KWARGS`, on/off)
+    that give ``env_id`` with ``env_kwargs`` observations of ``model_shape``: the fewest
+    changes first; None when no combination does."""
+    import itertools
+
+    import gymnasium as gym
+
+    from evertgym.env.eversion_env import OBSERVATION_KWARGS
+
+    flags = [k for k in OBSERVATION_KWARGS if isinstance(env_kwargs.get(k, False), bool)]
+    for n in range(1, len(flags) + 1):
+        for names in itertools.combinations(flags, n):
+            change = {k: not env_kwargs.get(k, False) for k in names}
+            try:
+                env = gym.make(env_id, **{**env_kwargs, **change})
+            except (TypeError, ValueError):
+                continue
+            shape = env.observation_space.shape
+            env.close()
+            if shape == tuple(model_shape):
+                return change
+    return None
+
+
+def check_observation_shape(policy: Policy, env: Any, label: str) -> None:
+    """A one-line ``ValueError`` when ``env``'s observations do not have the shape a trained
+    ``policy`` takes: both shapes, and the env kwargs that would fix it (``--env-kwargs`` at
+    the command line).  Baselines take any observation."""
+    from evertgym.env.eversion_env import OBSERVATION_KWARGS
+
+    model = getattr(policy, "model", None)
+    if model is None:
+        return
+    want, got = tuple(model.observation_space.shape), tuple(env.observation_space.shape)
+    if want == got:
+        return
+    env_id = env.spec.id if env.spec is not None else type(env.unwrapped).__name__
+    kwargs = {k: v for k, v in (env.spec.kwargs if env.spec is not None else {}).items() if k in OBSERVATION_KWARGS}
+    fix = observation_fix(want, env_id, kwargs) if env.spec is not None else None
+    how = (f"pass --env-kwargs '{json.dumps(fix)}' (env_kwargs={fix!r} in Python)" if fix is not None
+           else "no observation flag of the env gives that shape: was it trained on another env?")
+    raise ValueError(f"policy {label!r} takes observations of shape {want} but {env_id} gives {got}: {how}")
+
 
 class SB3Policy(Policy):
-    """A saved stable-baselines3 model (``.zip``), with its VecNormalize statistics if a
-    ``vecnormalize.pkl`` sits beside it.
+    """A saved stable-baselines3 model (``.zip``), with its VecNormalize statistics if they
+    lie beside it (:func:`vecnormalize_path`), and the env it was trained with (:func:`model_meta`).
 
     Actions are the policy's mean (``deterministic=True``) or drawn from its Gaussian
     (PPO only) with a generator seeded by each episode's seed, so a stochastic evaluation
@@ -27,6 +106,7 @@ class SB3Policy(Policy):
     name = "agent"
 
     def __init__(self, path: str | Path, deterministic: bool | None = None, trust: bool = False):
+        require("a trained policy", "stable_baselines3", "torch")
         from stable_baselines3 import PPO, SAC
 
         from evertgym.agents.trust import check_trusted
@@ -35,7 +115,8 @@ class SB3Policy(Policy):
         path = Path(path)
         if not path.is_file():
             raise ValueError(f"policy path = {str(path)!r} is not a file")
-        stats = path.with_name(path.stem + "_vecnormalize.pkl")
+        self.path = path
+        stats = vecnormalize_path(path)
         for f in (path, stats) if stats.exists() else (path,):
             check_trusted(f, trust)
         last_error = None
@@ -47,10 +128,11 @@ class SB3Policy(Policy):
                 last_error = e
         else:
             raise ValueError(f"policy path = {str(path)!r} is not a PPO or SAC model: {last_error}")
-        meta = path.with_name(path.stem + "_env.json")
+        shipped = model_meta(path)
+        #: the env id the model was trained on (None when nothing beside the model says)
+        self.env_id: str | None = shipped.get("env_id")
         #: env kwargs the model was trained with; evaluation applies only the observation
         #: flags among them (``observation_kwargs``), so every policy meets the same physics
-        shipped = json.loads(meta.read_text()) if meta.exists() else {}
         self.env_kwargs = shipped.get("env_kwargs", {})
         self.observation_kwargs = {k: v for k, v in self.env_kwargs.items() if k in OBSERVATION_KWARGS}
         self.deterministic = bool(shipped.get("deterministic", True)) if deterministic is None else bool(deterministic)
@@ -66,6 +148,7 @@ class SB3Policy(Policy):
             self.obs_rms, self.clip_obs, self.epsilon = vn.obs_rms, vn.clip_obs, vn.epsilon
 
     def reset(self, env) -> None:
+        check_observation_shape(self, env, str(self.path))
         super().reset(env)
         seed = getattr(env.unwrapped, "np_random_seed", None)
         self.rng = np.random.default_rng(None if seed is None or seed < 0 else int(seed))
@@ -154,6 +237,31 @@ def shipped_policies() -> list[str]:
     return sorted(p.parent.name for p in shipped_dir().glob("*/final.zip"))
 
 
+def policy_cards() -> list[dict]:
+    """One row per shipped policy (:func:`shipped_policies`): ``name``, ``env_id``, the
+    observation flags it was trained with (``observations``), whether it acts by its mean
+    (``deterministic``), its training config (``config``, a path; None if not shipped) and
+    its held-out success (``held_out``: ``episodes``, ``successes``, ``ci_low``,
+    ``ci_high``, the evaluation's ``env_kwargs`` and ``source``, from the shipped
+    ``held_out.json`` written by ``scripts/held_out_index.py``; None if not listed).
+    Only JSON is read: no model is loaded."""
+    from evertgym.env.eversion_env import OBSERVATION_KWARGS
+
+    index = shipped_dir() / "held_out.json"
+    held_out = json.loads(index.read_text(encoding="utf-8"))["policies"] if index.is_file() else {}
+    rows = []
+    for name in shipped_policies():
+        meta = model_meta(shipped_dir() / name / "final.zip")
+        config = shipped_dir() / f"{name}.toml"
+        rows.append({
+            "name": name, "env_id": meta.get("env_id"),
+            "observations": {k: v for k, v in meta.get("env_kwargs", {}).items() if k in OBSERVATION_KWARGS},
+            "deterministic": bool(meta.get("deterministic", True)), "config": str(config) if config.is_file() else None,
+            "held_out": held_out.get(name),
+        })
+    return rows
+
+
 def resolve_policy_path(name_or_path: str | Path) -> Path:
     """``"colon_ppo"`` -> the shipped ``agents/colon_ppo/final.zip``; a run folder -> its
     ``final.zip``; a ``.zip`` path -> itself.  Raises ``ValueError`` naming the shipped ones."""
@@ -184,4 +292,7 @@ def make_policy(desc: dict | str, trust: bool = False) -> Policy:
         raise ValueError("policy must have a name: constant, operator, cycle, deflate, tuned or agent")
     if name in shipped_policies():  # a shipped trained policy by name, e.g. "colon_ppo"
         return SB3Policy(resolve_policy_path(name), desc.get("deterministic"), trust=trust)
+    if name not in BASELINES and name != "tuned":
+        raise ValueError(f"unknown policy {name!r}: allowed a baseline {sorted(BASELINES) + ['tuned']}, "
+                         f"a shipped policy {shipped_policies()} (evertgym policies lists them) or a saved model (.zip)")
     return make_baseline(name, **desc)

@@ -17,10 +17,14 @@ A config is a TOML file in ``agents/`` in the spirit of rl-zoo3's hyperparameter
     [hyperparams.policy_kwargs]
     net_arch = [64, 64]
 
-``train(config)`` writes ``runs/<name>/``: TensorBoard logs, ``checkpoints/`` (model and
-VecNormalize statistics every ``checkpoint_freq`` steps), ``final.zip`` (+ its
-``final_vecnormalize.pkl``) and ``eval.json``.  ``resume=True`` restarts from the newest
-checkpoint and continues the step counter (SB3's ``reset_num_timesteps=False``).
+``train(config)`` writes ``runs/<name>/``: TensorBoard logs, ``checkpoints/`` (model,
+VecNormalize statistics and the env it was trained on, ``model_<N>_steps_env.json``, every
+``checkpoint_freq`` steps), ``final.zip`` (+ its ``final_vecnormalize.pkl`` and
+``final_env.json``) and ``eval.json``.  Training the same config into the same folder again
+continues from the newest checkpoint and the step counter (SB3's
+``reset_num_timesteps=False``): an interrupted run resumes, and a finished one is not
+trained again (:func:`run_status`).  ``resume=True`` insists on a checkpoint;
+``resume=False`` insists on a fresh folder.
 
 Scene seeds: training episodes draw their scenes from the env's own ``np_random``, seeded
 ``seed + rank`` at the first reset of a run started from its config (so such a run is
@@ -51,10 +55,13 @@ else:  # pragma: no cover
 import gymnasium as gym
 import numpy as np
 
+from evertgym._extras import require
 from evertgym._validate import check_int
 from evertgym.env.eversion_env import HELD_OUT_SEED_BASE
 
 ALGOS = ("ppo", "sac")
+#: finished episodes the training bar's return and success rate average over
+ROLLING_EPISODES = 100
 
 
 def load_config(path: str | Path, seed: int | None = None) -> dict:
@@ -152,14 +159,47 @@ def _load_checkpoint(ckpt_dir: Path, normalize: bool, load):
     raise ValueError(f"--resume: no complete checkpoint in {ckpt_dir}" + (f" (torn: {', '.join(errors)})" if errors else ""))
 
 
-def train(config_path: str | Path, out_dir: str | Path = "runs", resume: bool = False, progress: bool = True,
+def run_status(config_path: str | Path, out_dir: str | Path = "runs", seed: int | None = None) -> dict:
+    """What training the config into ``out_dir`` would do: ``{"run_dir", "n_timesteps",
+    "checkpoint_steps", "finished"}``.  ``checkpoint_steps`` is the step count of the newest
+    complete checkpoint (None without one); ``finished`` says the run folder holds a final
+    model trained to the config's ``n_timesteps`` (its ``eval.json``).  Raises ``ValueError``
+    when the folder has checkpoint files of which none is complete."""
+    cfg = load_config(config_path, seed)
+    run_dir = Path(out_dir) / cfg["name"]
+    ckpt_dir = run_dir / "checkpoints"
+    found = _checkpoints(ckpt_dir, cfg.get("normalize", False)) if ckpt_dir.is_dir() else []
+    if not found and ckpt_dir.is_dir() and any(ckpt_dir.glob("model_*_steps.zip")):
+        raise ValueError(f"{ckpt_dir}: checkpoint files but none complete (a model zip with its statistics): "
+                         f"remove {run_dir} to train from step 0")
+    finished = False
+    summary = run_dir / "eval.json"
+    if (run_dir / "final.zip").is_file() and summary.is_file():
+        try:
+            finished = int(json.loads(summary.read_text(encoding="utf-8"))["num_timesteps"]) >= cfg["n_timesteps"]
+        except (ValueError, KeyError, TypeError):
+            finished = False
+    return {"run_dir": str(run_dir), "n_timesteps": cfg["n_timesteps"], "checkpoint_steps": found[0][1] if found else None,
+            "finished": finished}
+
+
+def train(config_path: str | Path, out_dir: str | Path = "runs", resume: bool | None = None, progress: bool = True,
           seed: int | None = None) -> dict:
     """Train (or resume) the config's agent; returns the final evaluation summary with the
-    training's wall time (``train_wall_s``, s) and the run folder (``run_dir``).  ``seed`` overrides the config's (see
-    :func:`load_config`)."""
+    training's wall time (``train_wall_s``, s), the run folder (``run_dir``), the step count
+    it resumed from (``resumed_from_steps``, None for a fresh run) and ``already_trained``.
+    ``seed`` overrides the config's (see :func:`load_config`).
+
+    ``resume=None`` (the default, and the command line without ``--resume``) continues from
+    the newest checkpoint of the run folder when it has one and starts at step 0 when it has
+    none; a run already trained to ``n_timesteps`` is not trained again (its stored summary
+    is returned, ``already_trained`` true).  ``resume=True`` raises ``ValueError`` without a
+    checkpoint; ``resume=False`` raises ``ValueError`` when the folder has one (a fresh start
+    never overwrites a run: remove the folder, or train into another ``out_dir``/``seed``)."""
     from evertgym.agents.load import require_rl
 
     require_rl("training")
+    require("training (its TensorBoard log)", "tensorboard")
     import torch
     from stable_baselines3 import PPO, SAC
     from stable_baselines3.common.base_class import BaseAlgorithm
@@ -173,7 +213,17 @@ def train(config_path: str | Path, out_dir: str | Path = "runs", resume: bool = 
 
     torch.set_num_threads(1)  # small MLPs: threads only fight the env workers for the cores
     cfg = load_config(config_path, seed)
+    status = run_status(config_path, out_dir, seed)
     run_dir = Path(out_dir) / cfg["name"]
+    if status["finished"] and resume is not False:
+        done = json.loads((run_dir / "eval.json").read_text(encoding="utf-8"))
+        return {**done, "run_dir": str(run_dir), "already_trained": True}
+    if resume is False and status["checkpoint_steps"] is not None:
+        raise ValueError(f"resume = False: {run_dir} already holds a run with a checkpoint at {status['checkpoint_steps']} steps: "
+                         "allowed resume=None or True to continue it; remove the folder to train from step 0")
+    if resume is False and (run_dir / "final.zip").exists():
+        raise ValueError(f"resume = False: {run_dir} already holds a trained model (final.zip): remove the folder to train from step 0")
+    resume = status["checkpoint_steps"] is not None if resume is None else resume
     ckpt_dir = run_dir / "checkpoints"
     ckpt_dir.mkdir(parents=True, exist_ok=True)
     n_envs, seed = cfg.get("n_envs", 1), cfg.get("seed", 0)
@@ -199,7 +249,20 @@ def train(config_path: str | Path, out_dir: str | Path = "runs", resume: bool = 
         policy = hp.pop("policy", "MlpPolicy")
         model = algo_cls(policy, venv, seed=seed, device="cpu", verbose=0, tensorboard_log=str(run_dir / "tb"), **hp)
     (run_dir / "config.json").write_text(json.dumps({"config": cfg, "argv": sys.argv, "resume": resumed}, indent=2, default=str))
-    ckpt_cb = CheckpointCallback(
+    # the observation options the policy was trained with travel with it and its checkpoints
+    # (and whether it acts by its mean or by sampling, the config's ``deterministic``)
+    meta = {"env_id": cfg["env_id"], "env_kwargs": cfg.get("env_kwargs", {}), "deterministic": cfg.get("deterministic", True)}
+
+    class _Checkpoints(CheckpointCallback):
+        """SB3's checkpoints, each with ``<stem>_env.json`` (the env it was trained on) beside it."""
+
+        def _on_step(self) -> bool:
+            go_on = super()._on_step()
+            if self.n_calls % self.save_freq == 0:
+                Path(self.save_path, f"{self.name_prefix}_{self.num_timesteps}_steps_env.json").write_text(json.dumps(meta, indent=2))
+            return go_on
+
+    ckpt_cb = _Checkpoints(
         save_freq=max(1, cfg.get("checkpoint_freq", 10000) // n_envs),
         save_path=str(ckpt_dir),
         name_prefix="model",
@@ -213,15 +276,13 @@ def train(config_path: str | Path, out_dir: str | Path = "runs", resume: bool = 
     if remaining > 0:
         model.learn(total_timesteps=remaining, callback=CallbackList(callbacks), reset_num_timesteps=False, tb_log_name=cfg["name"])
     model.save(str(run_dir / "final"))
-    # the observation options the policy was trained with travel with it
-    # (and whether it acts by its mean or by sampling, the config's ``deterministic``)
-    meta = {"env_id": cfg["env_id"], "env_kwargs": cfg.get("env_kwargs", {}), "deterministic": cfg.get("deterministic", True)}
     (run_dir / "final_env.json").write_text(json.dumps(meta, indent=2))
     if isinstance(venv, VecNormalize):
         venv.save(str(run_dir / "final_vecnormalize.pkl"))
     venv.close()
     summary: dict[str, Any] = {"num_timesteps": int(model.num_timesteps), "train_wall_s": time.perf_counter() - t0,
-                               "run_dir": str(run_dir)}
+                               "run_dir": str(run_dir), "resumed_from_steps": resumed["num_timesteps"] if resumed else None,
+                               "already_trained": False}
     if cfg.get("eval_episodes", 0) > 0:
         from evertgym.agents.evaluate import evaluate
 
@@ -234,17 +295,29 @@ def train(config_path: str | Path, out_dir: str | Path = "runs", resume: bool = 
 
 
 class _TqdmCallback:
-    """A tqdm progress bar over env steps (SB3's own needs ``rich``)."""
+    """A tqdm progress bar over env steps (SB3's own needs ``rich``): steps, rate and ETA, and
+    the mean return and success rate of the last :data:`ROLLING_EPISODES` finished episodes."""
 
     def __new__(cls, total: int, start: int):
+        from collections import deque
+
         from stable_baselines3.common.callbacks import BaseCallback
         from tqdm.auto import tqdm
 
         class _Cb(BaseCallback):
             def _on_training_start(self) -> None:
                 self.bar = tqdm(total=total, initial=start, unit="step", desc="train")
+                self.returns: deque[float] = deque(maxlen=ROLLING_EPISODES)
+                self.successes: deque[bool] = deque(maxlen=ROLLING_EPISODES)
 
             def _on_step(self) -> bool:
+                for done, info in zip(self.locals.get("dones", ()), self.locals.get("infos", ())):
+                    if done and "episode" in info:  # Monitor's record of the finished episode
+                        self.returns.append(float(info["episode"]["r"]))
+                        self.successes.append(bool(info.get("success", False)))
+                if self.returns:
+                    self.bar.set_postfix({"return": f"{np.mean(self.returns):.2f}", "success": f"{np.mean(self.successes):.2f}",
+                                          "episodes": len(self.returns)}, refresh=False)
                 self.bar.update(self.training_env.num_envs)
                 return True
 

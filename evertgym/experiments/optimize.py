@@ -12,6 +12,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from tqdm import tqdm
+
+from evertgym._extras import require
 from evertgym.experiments.sweep import sweep_specs
 from evertgym.experiments.trial import run_trial
 from evertgym.scoring.runner import run_trials
@@ -42,7 +45,12 @@ def optimize_bands(
     length_mm: float = 900.0,
     backend: str = "process",
     seed: int = 0,
+    progress: bool = False,
 ) -> dict:
+    """Run (or resume) the search and score its best design against the paper's on held-out
+    scenes: ``{"best_params", "best_design", "held_out", "trials"}``.  ``progress`` shows a bar
+    over the designs with the best score so far, then one over the held-out trials (stderr)."""
+    require("evertgym optimize (optimize_bands)", "optuna")
     import optuna
 
     if policy not in ("constant", "operator"):
@@ -60,7 +68,7 @@ def optimize_bands(
     def score(designs: dict[str, dict], first_seed: int, n: int) -> list[dict]:
         specs = sweep_specs(designs, scene, n, trials_per_scene, pol, episode, first_scene_seed=first_seed)
         with ResultStore(store_path) as store:
-            records = run_trials(specs, run_trial, store, backend=backend, progress=False)
+            records = run_trials(specs, run_trial, store, backend=backend, progress=progress and first_seed == HELD_OUT_FIRST_SEED)
         return summarize(records, by="design_name")
 
     def objective(trial) -> float:
@@ -72,9 +80,18 @@ def optimize_bands(
         rate = score({f"candidate {trial.number}": design}, 0, n_scenes)[0]["success_rate"]
         return rate - 0.001 * n
 
-    remaining = n_trials - len([t for t in study.trials if t.state.name == "COMPLETE"])
+    done = len([t for t in study.trials if t.state.name == "COMPLETE"])
+    remaining = n_trials - done
     if remaining > 0:
-        study.optimize(objective, n_trials=remaining)
+        with tqdm(total=n_trials, initial=done, desc="optimize", unit="design", disable=not progress) as bar:
+
+            def show_best(study, trial) -> None:  # an optuna callback, after every finished design
+                if any(t.state.name == "COMPLETE" for t in study.trials):
+                    b = study.best_trial
+                    bar.set_postfix({"best": f"{b.value:.3f}", "n_bands": b.params["n_bands"], "design": b.number}, refresh=False)
+                bar.update(1)
+
+            study.optimize(objective, n_trials=remaining, callbacks=[show_best])
     best = study.best_params
     best_design = band_design(best["n_bands"], best["spacing_mm"], best["reduction"], best["last_band_mm"], diameter_mm, length_mm)
     paper = band_design(3, 50.0, 0.1, 300.0, diameter_mm, length_mm)

@@ -8,7 +8,8 @@
 - :func:`run_trials` skips stored trials, runs the rest serially, in a process pool or on
   Dask, and stores each result the moment it comes back, so a killed run resumes.
 - :func:`summarize` gives per-design success rates with Wilson intervals
-  (:func:`wilson_interval`) and result medians.
+  (:func:`wilson_interval`) and result medians; :func:`compare_rates` the difference of two
+  designs' rates with its Newcombe interval (:func:`newcombe_interval`) and a verdict.
 
 The physics trial and the paper's experiments live in :mod:`evertgym.experiments`; this package runs any trial
 function and does not import it.
@@ -31,7 +32,7 @@ from evertgym.scoring.spec import (
     canonical_json,
     check_result,
 )
-from evertgym.scoring.stats import summarize, wilson_interval
+from evertgym.scoring.stats import compare_rates, newcombe_interval, summarize, wilson_interval
 from evertgym.scoring.store import ResultStore, TrialRecord
 
 __all__ = [
@@ -51,6 +52,8 @@ __all__ = [
     "available_cpus",
     "canonical_json",
     "check_result",
+    "compare_rates",
+    "newcombe_interval",
     "run_metadata",
     "run_trials",
     "summarize",

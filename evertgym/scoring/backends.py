@@ -42,6 +42,7 @@ from contextlib import ExitStack
 from dataclasses import dataclass
 from typing import Any
 
+from evertgym._extras import require
 from evertgym.scoring.spec import TrialSpec
 
 #: A trial function: a picklable top-level function ``TrialSpec -> dict``.
@@ -260,6 +261,7 @@ def dask_backend(
     trial_fn: TrialFn, specs: Sequence[TrialSpec], workers: int | None = None, address: str | None = None
 ) -> Generator[tuple[TrialSpec, Outcome], None, None]:
     """Run the trials on the Dask scheduler at ``address``, else on a local cluster of ``workers``."""
+    require("the dask backend", "dask", "distributed")
     from dask.distributed import Client, LocalCluster
     from dask.distributed import as_completed as dask_as_completed
 

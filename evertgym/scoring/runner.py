@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 from tqdm import tqdm
 
+from evertgym._extras import require
 from evertgym.scoring.backends import BACKENDS, TrialFn, available_cpus, dask_backend
 from evertgym.scoring.provenance import code_fingerprint, run_metadata
 from evertgym.scoring.spec import TrialResultError, TrialSpec
@@ -112,6 +113,8 @@ def run_trials(
         raise ValueError(f"on_error = {on_error!r} is not allowed: allowed 'raise' or 'warn'")
     if address is not None and backend != "dask":
         raise ValueError(f"address = {address!r} is not allowed with backend {backend!r}: allowed only with 'dask'")
+    if backend == "dask":  # before the progress bar
+        require("the dask backend", "dask", "distributed")
     if address is not None and workers is not None:
         raise ValueError(f"workers = {workers!r} is not allowed with an address: the cluster sets its workers")
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
