@@ -325,7 +325,7 @@ def _sim_overrides(text: str | None, extra: dict | None = None) -> dict:
     return sim
 
 
-def _float_list(text: str | None, flag: str, lo: float, hi: float, unit: str) -> list[float] | None:
+def _number_list(text: str | None, flag: str, lo: float, hi: float, unit: str) -> list[float] | None:
     """A comma-separated list of numbers in [lo, hi] (``--radii``, ``--reductions``)."""
     if text is None:
         return None
@@ -384,8 +384,8 @@ def cmd_reproduce_ubend(args: argparse.Namespace) -> int:
     from evertgym.experiments.paper import UBEND_RADII_MM, UBEND_REDUCTIONS
 
     sim = _sim_overrides(args.sim)
-    radii = _float_list(args.radii, "--radii", 20.0, 40.0, "mm") or UBEND_RADII_MM
-    reductions = _float_list(args.reductions, "--reductions", 0.0, 0.5, "") or UBEND_REDUCTIONS
+    radii = _number_list(args.radii, "--radii", 20.0, 40.0, "mm") or UBEND_RADII_MM
+    reductions = _number_list(args.reductions, "--reductions", 0.0, 0.5, "") or UBEND_REDUCTIONS
     result = reproduce_ubend(args.db, trials=args.trials, backend=args.backend, workers=args.workers, progress=not args.json,
                              sim=sim or None, radii=radii, reductions=reductions)
     if args.plot:

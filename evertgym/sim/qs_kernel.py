@@ -29,8 +29,6 @@ import math
 import numba as nb
 import numpy as np
 
-_JIT = {"cache": True, "nogil": True, "fastmath": False}
-
 #: solve status codes
 CONVERGED = 0
 MAX_ITERATIONS = 1
@@ -38,7 +36,7 @@ LINE_SEARCH_FAILED = 2
 INFEASIBLE_START = 3
 
 
-@nb.njit(**_JIT)
+@nb.njit(cache=True, nogil=True)
 def _law_eval(x: float, table_u: np.ndarray, table_h: np.ndarray, table_hi: np.ndarray, slope_tail: float):
     """Normalised wrinkled law at curvature ratio ``x >= 1``: ``(h, dh/dx, H)`` with ``h = M / M_c``
     and ``H = int_1^x h``; tabulated in ``ln x`` on a uniform grid, linear beyond its end."""
@@ -63,7 +61,7 @@ def _law_eval(x: float, table_u: np.ndarray, table_h: np.ndarray, table_hi: np.n
     return h, dh, hi
 
 
-@nb.njit(**_JIT)
+@nb.njit(cache=True, nogil=True)
 def joint_law(phi: float, k: float, mw: float, table_u, table_h, table_hi, slope_tail, residual: float):
     """``(W, M, dM/dphi)`` of one joint: energy (J), moment (N m) and tangent stiffness (N m/rad).
     Linear ``k phi`` up to the wrinkling moment ``mw``, then ``M_c h(phi / phi_w)`` (the
@@ -81,7 +79,7 @@ def joint_law(phi: float, k: float, mw: float, table_u, table_h, table_hi, slope
     return 0.5 * k * phiw * phiw + mc * phiw * hi, s * mc * h, mc * dh / phiw
 
 
-@nb.njit(**_JIT)
+@nb.njit(cache=True, nogil=True)
 def _closest(ax, ay, bx, by, cx, cy, dx, dy):
     """Closest points of segments ab and cd: ``(s, t, px, py, qx, qy, dist)`` with p = a + s (b - a)."""
     ux = bx - ax
@@ -116,7 +114,7 @@ def _closest(ax, ay, bx, by, cx, cy, dx, dy):
     return s, t, px, py, qx, qy, dist
 
 
-@nb.njit(**_JIT)
+@nb.njit(cache=True, nogil=True)
 def _point_segment(px, py, ax, ay, bx, by):
     """Closest point of segment ab to p: ``(t, qx, qy, dist)`` with q = a + t (b - a)."""
     ux = bx - ax
@@ -129,7 +127,7 @@ def _point_segment(px, py, ax, ay, bx, by):
     return t, qx, qy, math.sqrt((px - qx) ** 2 + (py - qy) ** 2)
 
 
-@nb.njit(**_JIT)
+@nb.njit(cache=True, nogil=True)
 def _pair(ax, ay, bx, by, cx, cy, dx, dy, is_vertex):
     """IPC's point-edge pairs in 2-D, each smooth where a segment-segment distance is not: a wall
     vertex c against the robot segment ab, or the robot node b (the segment's distal end) against
@@ -142,7 +140,7 @@ def _pair(ax, ay, bx, by, cx, cy, dx, dy, is_vertex):
     return 1.0, bx, by, qx, qy, dist
 
 
-@nb.njit(**_JIT)
+@nb.njit(cache=True, nogil=True)
 def _point_point(s, qx, qy, cx, cy, dx, dy, is_vertex):
     """Whether a pair's closest points are two points (a wall vertex at a robot node, or a robot
     node at a wall segment's end): its distance then curves, ``(I - n n^T) / dist``."""
@@ -154,7 +152,7 @@ def _point_point(s, qx, qy, cx, cy, dx, dy, is_vertex):
     return t <= 1e-12 or t >= 1.0 - 1e-12
 
 
-@nb.njit(**_JIT)
+@nb.njit(cache=True, nogil=True)
 def chain_nodes(theta0: float, n0: np.ndarray, phi: np.ndarray, seg_len: np.ndarray):
     """Node positions (m + 1, 2) and segment directions (m,) of the window."""
     m = phi.shape[0]
@@ -171,7 +169,7 @@ def chain_nodes(theta0: float, n0: np.ndarray, phi: np.ndarray, seg_len: np.ndar
     return nodes, theta
 
 
-@nb.njit(**_JIT)
+@nb.njit(cache=True, nogil=True)
 def wall_world(w: int, wa, wb, wpiece, pc0, u):
     """World end points of wall segment ``w`` (static: as stored; a piece's: moved with it)."""
     p = wpiece[w]
@@ -185,7 +183,7 @@ def wall_world(w: int, wa, wb, wpiece, pc0, u):
             ox + c * wb[w, 0] - s * wb[w, 1], oy + s * wb[w, 0] + c * wb[w, 1])
 
 
-@nb.njit(**_JIT)
+@nb.njit(cache=True, nogil=True)
 def _barrier(d: float, dhat: float):
     """``b(d), b'(d), b''(d)`` of the IPC log barrier (0 beyond ``dhat``)."""
     if d >= dhat:
@@ -195,7 +193,7 @@ def _barrier(d: float, dhat: float):
     return -r * r * lg, -2.0 * r * lg - r * r / d, -2.0 * lg - 4.0 * r / d + r * r / (d * d)
 
 
-@nb.njit(**_JIT)
+@nb.njit(cache=True, nogil=True)
 def _f0(y: float, eps: float):
     """IPC's smoothed sliding potential: ``f0(y)``, ``f1(y) / y`` (force per slip) and ``f1'(y)``
     (the exact stiffness of the one-dimensional tangent of a planar contact: 0 once sliding)."""
@@ -204,7 +202,7 @@ def _f0(y: float, eps: float):
     return y * y / eps - y ** 3 / (3.0 * eps * eps) + eps / 3.0, (2.0 / eps - y / (eps * eps)), 2.0 / eps - 2.0 * y / (eps * eps)
 
 
-@nb.njit(**_JIT)
+@nb.njit(cache=True, nogil=True)
 def contacts(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, dhat, margin):
     """Every robot-wall pair (:func:`_pair`) with gap below ``dhat + margin``: rows of
     ``(k, w, s, 0, px, py, qx, qy, nx, ny, gap)`` as float (k: window segment, w: wall feature,
@@ -252,7 +250,7 @@ def contacts(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0
     return out[:cnt]
 
 
-@nb.njit(**_JIT)
+@nb.njit(cache=True, nogil=True)
 def pair_rows(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, cand, dhat, margin):
     """:func:`contacts` restricted to the candidate pairs ``cand`` (k, w)."""
     nodes, _ = chain_nodes(theta0, n0, phi, seg_len)
@@ -281,13 +279,13 @@ def pair_rows(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc
     return out[:cnt]
 
 
-@nb.njit(**_JIT)
+@nb.njit(cache=True, nogil=True)
 def _pair_list(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, dhat, margin):
     """``(k, w)`` of every robot-wall pair within ``dhat + margin`` (the candidates of a solve)."""
     return _rows_to_pairs(contacts(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, dhat, margin))
 
 
-@nb.njit(**_JIT)
+@nb.njit(cache=True, nogil=True)
 def _rows_to_pairs(rows):
     out = np.empty((rows.shape[0], 2), np.int64)
     for i in range(rows.shape[0]):
@@ -296,7 +294,7 @@ def _rows_to_pairs(rows):
     return out
 
 
-@nb.njit(**_JIT)
+@nb.njit(cache=True, nogil=True)
 def energy(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
            wa, wb, wpiece, wvert, wrad, pc0, u, pairs, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0, fr_xw0,
            dhat, kappa, eps_v):
@@ -340,7 +338,7 @@ def energy(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, l
     return e
 
 
-@nb.njit(**_JIT)
+@nb.njit(cache=True, nogil=True)
 def _wall_point(w, lx, ly, wpiece, pc0, u):
     """World position of a point given in wall segment ``w``'s body frame (world for static walls)."""
     p = wpiece[w]
@@ -351,7 +349,7 @@ def _wall_point(w, lx, ly, wpiece, pc0, u):
     return pc0[p, 0] + u[p, 0] + c * lx - s * ly, pc0[p, 1] + u[p, 1] + s * lx + c * ly
 
 
-@nb.njit(**_JIT)
+@nb.njit(cache=True, nogil=True)
 def _add_point_force(k, px, py, fx, fy, acc_f, acc_m, acc_fx):
     """Accumulate a force ``f`` (on the robot) at ``p`` on segment ``k``: sums per segment of f,
     p x f and f . p (for the generalised forces and the geometric stiffness)."""
@@ -361,7 +359,7 @@ def _add_point_force(k, px, py, fx, fy, acc_f, acc_m, acc_fx):
     acc_fx[k] += fx * px + fy * py
 
 
-@nb.njit(**_JIT)
+@nb.njit(cache=True, nogil=True)
 def _rank1(hess, smat, m, k, px, py, nodes, dirx, diry, piece, pc_x, pc_y, wx, wy, coef):
     """Add ``coef g g^T`` for the gradient ``g`` of ``dir . (p - q)``.  Its robot part,
     ``g_j = (p - n_j) x dir = v . w_j`` for the joints ``j <= k`` with ``v = (p x dir, dir_y, dir_x)``
@@ -406,7 +404,7 @@ def _rank1(hess, smat, m, k, px, py, nodes, dirx, diry, piece, pc_x, pc_y, wx, w
     hess[o + 2, o + 2] += coef * gp2 * gp2
 
 
-@nb.njit(**_JIT)
+@nb.njit(cache=True, nogil=True)
 def _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, pairs, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0, fr_xw0,
                    dhat, kappa, eps_v, grad, hess, smat, va, vf, want_hess):
     """Barrier and lagged-friction forces of the window: per segment the sums of the force on the
@@ -516,7 +514,7 @@ def _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0,
     return acc_f, acc_m, acc_fx, tip
 
 
-@nb.njit(**_JIT)
+@nb.njit(cache=True, nogil=True)
 def segment_forces(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, cand, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0,
                    fr_xw0, dhat, kappa, eps_v):
     """The wall forces on the window at ``phi``: per segment the force (N, m x 2) and its moment
@@ -528,7 +526,8 @@ def segment_forces(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wra
     near = pair_rows(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, cand, dhat, 0.0)
     pairs = _rows_to_pairs(near)
     acc_f, acc_m, _, tip = _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, pairs, fr_k, fr_s, fr_w, fr_wl, fr_t,
-                                          fr_mulam, fr_xr0, fr_xw0, dhat, kappa, eps_v, grad, np.zeros((1, 1)), np.zeros((m, 3, 3)), np.zeros(m), np.zeros((m, 2)), False)
+                                          fr_mulam, fr_xr0, fr_xw0, dhat, kappa, eps_v, grad, np.zeros((1, 1)), np.zeros((m, 3, 3)),
+                                          np.zeros(m), np.zeros((m, 2)), False)
     # the tip segment's clearance among the candidates (inf if none)
     tip_rows = pair_rows(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, cand, dhat, 1.0)
     for i in range(tip_rows.shape[0]):
@@ -537,7 +536,7 @@ def segment_forces(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wra
     return acc_f, acc_m, tip
 
 
-@nb.njit(**_JIT)
+@nb.njit(cache=True, nogil=True)
 def joint_moments(phi, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual):
     """Moments (N m) of joints at ``phi`` (rad) under :func:`joint_law`."""
     out = np.empty(phi.shape[0])
@@ -546,7 +545,7 @@ def joint_moments(phi, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual):
     return out
 
 
-@nb.njit(**_JIT)
+@nb.njit(cache=True, nogil=True)
 def grad_hess(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
               wa, wb, wpiece, wvert, wrad, pc0, u, pairs, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0, fr_xw0,
               dhat, kappa, eps_v, want_hess):
@@ -628,7 +627,7 @@ def grad_hess(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi
     return grad, hess
 
 
-@nb.njit(**_JIT)
+@nb.njit(cache=True, nogil=True)
 def _try_cholesky(a):
     try:
         return np.linalg.cholesky(a), True
@@ -636,7 +635,7 @@ def _try_cholesky(a):
         return a, False
 
 
-@nb.njit(**_JIT)
+@nb.njit(cache=True, nogil=True)
 def _cholesky_solve(hess, rhs, mu0=0.0):
     """Solve ``(H + mu I) x = rhs`` with the smallest shift ``mu`` (0, then growing tenfold from
     1e-8 of the largest diagonal term) that makes the matrix positive definite (a Levenberg
@@ -669,7 +668,7 @@ def _cholesky_solve(hess, rhs, mu0=0.0):
     return np.zeros(n), -1.0
 
 
-@nb.njit(**_JIT)
+@nb.njit(cache=True, nogil=True)
 def _schur_solve(hess, rhs, m, npc, mu0):
     """Solve ``(H + mu I) x = rhs`` where the wall pieces' block of ``H`` is block diagonal (each
     piece an independent spring): the pieces are eliminated (Schur complement on the joints), so
@@ -718,7 +717,7 @@ def _schur_solve(hess, rhs, m, npc, mu0):
     return np.zeros(n), -1.0
 
 
-@nb.njit(**_JIT)
+@nb.njit(cache=True, nogil=True)
 def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
           wa, wb, wpiece, wvert, wrad, pc0, u, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0, fr_xw0,
           dhat, kappa, eps_v, tol_m, tol_f, max_iter, max_move, cand):
@@ -815,7 +814,7 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
     return MAX_ITERATIONS, max_iter, res_m, res_f
 
 
-@nb.njit(**_JIT)
+@nb.njit(cache=True, nogil=True)
 def _friction_inputs(e_s, e_w, e_wl, start_nodes, s_nodes, seg_len, wpiece, pc0, u0):
     """Window segment, parameter and start positions of lagged friction entries (material
     coordinate ``e_s``, -1 for the tip's cap; wall feature ``e_w``; wall-frame point ``e_wl``)."""
@@ -844,7 +843,7 @@ def _friction_inputs(e_s, e_w, e_wl, start_nodes, s_nodes, seg_len, wpiece, pc0,
     return fr_k, fr_s, fr_xr0, fr_xw0
 
 
-@nb.njit(**_JIT)
+@nb.njit(cache=True, nogil=True)
 def _entries(rows, s_nodes, seg_len, robot_mu, wall_mu, wpiece, pc0, u, dhat, kappa):
     """Lagged friction entries of the contacts ``rows``: material coordinate (-1: the cap), wall
     feature, wall-frame point, tangent and ``mu lambda`` (the barrier's normal force times the
@@ -888,7 +887,7 @@ def _entries(rows, s_nodes, seg_len, robot_mu, wall_mu, wpiece, pc0, u, dhat, ka
     return e_s[:cnt], e_w[:cnt], e_wl[:cnt], e_t[:cnt], e_ml[:cnt]
 
 
-@nb.njit(**_JIT)
+@nb.njit(cache=True, nogil=True)
 def _same_entries(a_s, a_w, a_ml, b_s, b_w, b_ml, tol_f):
     """Whether two entry sets hold the same contacts with normal forces within ``tol_f``."""
     if a_s.shape[0] != b_s.shape[0]:
@@ -904,7 +903,7 @@ def _same_entries(a_s, a_w, a_ml, b_s, b_w, b_ml, tol_f):
     return True
 
 
-@nb.njit(**_JIT)
+@nb.njit(cache=True, nogil=True)
 def solve_increment(theta0, n0, phi, phi_ref, seg_len, seg_rad, s_nodes, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
                     wa, wb, wpiece, wvert, wrad, wall_mu, robot_mu, pc0, u, kaa, fh, travel, k_travel,
                     e_s, e_w, e_wl, e_t, e_ml, dhat, kappa, eps_v, tol_m, tol_f, max_iter, max_move, lag_iterations):
@@ -956,7 +955,7 @@ def solve_increment(theta0, n0, phi, phi_ref, seg_len, seg_rad, s_nodes, k_j, mw
     return status, iters, res_m, res_f, e_s, e_w, e_wl, e_t, e_ml, acc_f, acc_m, tip, rows
 
 
-@nb.njit(**_JIT)
+@nb.njit(cache=True, nogil=True)
 def near_features(nodes, seg_rad, box_lo, box_hi, reach):
     """Mask of the wall features (boxes ``box_lo``, ``box_hi``) within ``reach`` (m) of a segment's
     box (its nodes grown by its radius): the walls a solve of these segments can touch."""

@@ -118,14 +118,16 @@ def _read_walls(space: pymunk.Space, handles, piece_index: dict) -> _Walls:
 
     rows: list[tuple] = []  # (ax, ay, bx, by, piece, vertex, radius, friction)
     net = getattr(handles, "network", None)
-    chains: list[tuple[list, int, float, float]] = []
+    chains: list[tuple[list[tuple[float, float]], int, float, float]] = []
     for sh in space.shapes:
-        if isinstance(sh, pymunk.Segment) and sh.body.body_type == pymunk.Body.STATIC and piece_index.get(id(sh.body), -1) < 0:
-            chains.append(([tuple(sh.a), tuple(sh.b)], -1, sh.radius, sh.friction))
+        body = sh.body
+        if isinstance(sh, pymunk.Segment) and body is not None and body.body_type == pymunk.Body.STATIC and piece_index.get(id(body), -1) < 0:
+            chains.append(([(sh.a.x, sh.a.y), (sh.b.x, sh.b.y)], -1, sh.radius, sh.friction))
     if net is not None:
         for i, outline in enumerate(net.outline):
-            pts = np.asarray(outline, float)
-            chains.append(([tuple(q) for q in pts[simplify(pts, _PIECE_OUTLINE_TOLERANCE_M)]], i, net.shape_radius, WALL_FRICTION))
+            outline_pts = np.asarray(outline, float)
+            kept = outline_pts[simplify(outline_pts, _PIECE_OUTLINE_TOLERANCE_M)]
+            chains.append(([(float(q[0]), float(q[1])) for q in kept], i, net.shape_radius, WALL_FRICTION))
     vertices: dict[tuple, int] = {}
     for pts, p, rad, mu in chains:
         for a, b in zip(pts[:-1], pts[1:]):
@@ -221,30 +223,28 @@ class QuasiStaticSim:
         piece_index = {id(b): i for i, b in enumerate(self._piece_bodies)}
         self._walls = _read_walls(self.space, handles, piece_index)
         w = self._walls
-        world_a = w.a + np.where(w.piece[:, None] >= 0, 0.0, 0.0)
+        net = getattr(handles, "network", None)
+        travel = float(net.mechanics.max_travel_m) if net is not None else 0.0
         ends = [w.a, w.b]
         if len(self._piece_bodies):  # a piece's features in world coordinates at rest
             pos = np.array([tuple(b.position) for b in self._piece_bodies], float)
             moving = w.piece >= 0
             ends = [np.where(moving[:, None], e + pos[np.maximum(w.piece, 0)], e) for e in ends]
-        del world_a
-        grow = (w.radius + (getattr(getattr(handles, "network", None), "mechanics", None).max_travel_m + 0.005
-                            if len(self._piece_bodies) else 0.0) * (w.piece >= 0))[:, None]
-        self._feature_boxes = (np.minimum(*ends) - grow - w.radius[:, None], np.maximum(*ends) + grow + w.radius[:, None])
-        net = getattr(handles, "network", None)
+        grow = (w.radius + (travel + 0.005) * (w.piece >= 0))[:, None]  # a piece's box covers its travel
+        self._feature_boxes = (np.minimum(*ends) - grow, np.maximum(*ends) + grow)
         n_p = len(self._piece_bodies)
         self._pc0 = np.array([tuple(b.position) for b in self._piece_bodies], float).reshape(-1, 2)
         self._u_all = np.zeros((n_p, 3))
         # each piece an independent spring that translates: the inverse of its own 2 x 2 translational
         # compliance (its point stiffness with its neighbours and its own rotation free to follow;
         # the coupling between pieces is dropped); its rotation is held (a stiff spring)
-        comp = np.asarray(net.compliance_matrix) if net is not None else np.zeros((0, 0))
         self._k_piece = np.zeros((n_p, 3, 3))
-        for i in range(n_p):
-            k2 = np.linalg.inv(comp[3 * i:3 * i + 2, 3 * i:3 * i + 2])
-            self._k_piece[i, :2, :2] = 0.5 * (k2 + k2.T)
-            self._k_piece[i, 2, 2] = 1e3 * float(np.max(k2)) * net.mechanics.piece_length_m**2
-        travel = net.mechanics.max_travel_m if net is not None else 0.0
+        if net is not None:
+            comp = np.asarray(net.compliance_matrix)
+            for i in range(n_p):
+                k2 = np.linalg.inv(comp[3 * i:3 * i + 2, 3 * i:3 * i + 2])
+                self._k_piece[i, :2, :2] = 0.5 * (k2 + k2.T)
+                self._k_piece[i, 2, 2] = 1e3 * float(np.max(k2)) * net.mechanics.piece_length_m**2
         self._travel = travel
         # the tether stop: 100 x the stiffest piece's own springs (a numerical stop, reported)
         self._k_travel = 100.0 * float(np.max(self._k_piece[:, :2, :2])) if n_p else 0.0
@@ -485,8 +485,9 @@ class QuasiStaticSim:
         reaction against growth changes by more than :data:`_FORCE_STEP_FRACTION` of ``p pi r^2``
         is halved (down to 1/64 of the increment), so that a narrow rise of the reaction is seen
         whatever the increment, and so is one whose straight extension would overlap a wall (the
-        body then bends away in smaller steps, as IPC's continuous collision step would); one after which the tip needs more pressure than ``p`` is cut back
-        by bisection to the length where the two meet, and growth stops there."""
+        body then bends away in smaller steps, as IPC's continuous collision step would).  An
+        increment after which the tip needs more pressure than ``p`` is cut back to the length where
+        the two meet (:meth:`_cut_back`), and growth stops there."""
         self._apply_pressure(p)
         self._p_solved = p
         remaining = self._pending
