@@ -272,6 +272,8 @@ def cmd_bench_env(args: argparse.Namespace) -> int:
     if hasattr(os, "sched_setaffinity") and args.one_core:
         os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
     steps = args.steps if args.steps is not None else (200 if args.against else 500)
+    if args.sim and not args.against:
+        raise CLIError("--sim is only used with --against: allowed together with --against REV")
     if not (1 <= steps <= 10**7):
         raise CLIError(f"--steps = {steps} is out of range: allowed [1, 1e7]")
     if not (1 <= args.repeats <= 100):
@@ -287,7 +289,7 @@ def cmd_bench_env(args: argparse.Namespace) -> int:
 
         with tqdm(total=len(ids) * 2 * args.repeats, desc="bench env --against", unit="run", disable=args.json) as bar:
             try:
-                result = bench_against(args.against, ids, steps, args.repeats, progress=bar.update)
+                result = bench_against(args.against, ids, steps, args.repeats, progress=bar.update, sim=_sim_overrides(args.sim) or None)
             except BuildError as e:
                 raise CLIError(str(e)) from None
         print(dumps(result) if args.json else "\n".join(format_against(result)))
@@ -862,6 +864,8 @@ def build_parser() -> argparse.ArgumentParser:
     be.add_argument("--against", metavar="REV", help="compare with git revision REV side by side on one core "
                                                     "(alternating runs, best of --repeats each; prints both and the ratio)")
     be.add_argument("--repeats", type=int, default=5, help="runs per build and id with --against, [1, 100]")
+    be.add_argument("--sim", default=None, help='with --against: SimConfig overrides (JSON) for the working tree\'s envs, '
+                                               'e.g. \'{"engine": "quasistatic"}\'')
     be.add_argument("--env", action="append", help="an env id (repeatable); default: every registered id")
     be.add_argument("--no-pin", dest="one_core", action="store_false", help="do not pin the process to one core")
     be.add_argument("--json", action="store_true", help=_JSON_HELP)

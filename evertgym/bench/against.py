@@ -29,6 +29,7 @@ from pathlib import Path
 _CHILD = r"""
 import json, os, sys, time
 tree, cpu = sys.argv[1], int(sys.argv[2])
+kwargs = json.loads(sys.argv[3]) if len(sys.argv) > 3 else {}
 sys.path.insert(0, tree)
 if hasattr(os, "sched_setaffinity"):
     os.sched_setaffinity(0, {cpu})
@@ -45,7 +46,7 @@ for line in sys.stdin:
     steps, seed = int(steps), int(seed)
     env = envs.get(env_id)
     if env is None:
-        env = envs[env_id] = gym.make(env_id)
+        env = envs[env_id] = gym.make(env_id, **kwargs)
     rng = np.random.default_rng(seed)
     env.reset(seed=seed)
     t0 = time.perf_counter()
@@ -87,11 +88,12 @@ def export_revision(rev: str, root: Path, into: Path) -> str:
 class _Build:
     """One build's long-lived benchmark process."""
 
-    def __init__(self, name: str, tree: Path, cpu: int) -> None:
+    def __init__(self, name: str, tree: Path, cpu: int, env_kwargs: dict | None = None) -> None:
         self.name = name
         env = dict(os.environ, PYTHONDONTWRITEBYTECODE="1")
         env.pop("PYTHONPATH", None)
-        self.proc = subprocess.Popen([sys.executable, "-c", _CHILD, str(tree), str(cpu)], stdin=subprocess.PIPE,
+        args = [sys.executable, "-c", _CHILD, str(tree), str(cpu)] + ([json.dumps(env_kwargs)] if env_kwargs else [])
+        self.proc = subprocess.Popen(args, stdin=subprocess.PIPE,
                                      stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
         first = self.proc.stdout.readline() if self.proc.stdout else ""
         if not first:
@@ -122,12 +124,14 @@ class _Build:
 
 
 def bench_against(rev: str, env_ids: Sequence[str], steps: int = 200, repeats: int = 5, seed: int = 0,
-                  progress=None) -> dict:
+                  progress=None, sim: dict | None = None) -> dict:
     """Best steps/s of ``rev`` and of the working tree per env id, and their ratio.
 
     ``repeats`` runs of ``steps`` env steps per build and id, alternating builds (ABBA...)
     on one CPU (the lowest this process may use).  ``progress``, if given, is called after
-    each run.  Returns ``{"against", "against_commit", "tree", "cpu", "steps", "repeats",
+    each run.  ``sim``: SimConfig overrides for the working tree's envs only (``sim_config``; e.g.
+    its quasi-static engine against the revision's default).  Returns ``{"against",
+    "against_commit", "tree", "cpu", "steps", "repeats", "sim",
     "rows": [{"env_id", "steps_per_s_against", "steps_per_s", "ratio", "runs_against",
     "runs"}]}``.
     """
@@ -135,7 +139,8 @@ def bench_against(rev: str, env_ids: Sequence[str], steps: int = 200, repeats: i
     cpu = min(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 0
     with tempfile.TemporaryDirectory(prefix="evertgym-against-") as tmp:
         commit = export_revision(rev, root, Path(tmp))
-        builds = {"against": _Build(f"{rev} ({commit[:12]})", Path(tmp), cpu), "tree": _Build("working tree", root, cpu)}
+        builds = {"against": _Build(f"{rev} ({commit[:12]})", Path(tmp), cpu),
+                  "tree": _Build("working tree", root, cpu, {"sim_config": dict(sim)} if sim else None)}
         try:
             runs: dict[tuple[str, str], list[float]] = {}
             for env_id in env_ids:
@@ -154,13 +159,14 @@ def bench_against(rev: str, env_ids: Sequence[str], steps: int = 200, repeats: i
         rows.append({"env_id": env_id, "steps_per_s_against": a, "steps_per_s": t, "ratio": t / a,
                      "runs_against": runs[("against", env_id)], "runs": runs[("tree", env_id)]})
     return {"against": rev, "against_commit": commit, "tree": str(root), "cpu": cpu, "steps": steps,
-            "repeats": repeats, "rows": rows}
+            "repeats": repeats, "sim": dict(sim or {}), "rows": rows}
 
 
 def format_against(result: dict) -> list[str]:
     """The comparison as a text table."""
     rev = f"{result['against']} ({result['against_commit'][:12]})"
-    lines = [f"side by side on CPU {result['cpu']}: best of {result['repeats']} alternating runs of {result['steps']} env steps",
+    sim = f"; working tree with sim_config {json.dumps(result['sim'])}" if result.get("sim") else ""
+    lines = [f"side by side on CPU {result['cpu']}: best of {result['repeats']} alternating runs of {result['steps']} env steps{sim}",
              f"{'env_id':26s} {rev + ' steps/s':>28s} {'working tree steps/s':>21s} {'ratio':>6s}"]
     for r in result["rows"]:
         lines.append(f"{r['env_id']:26s} {r['steps_per_s_against']:>28.0f} {r['steps_per_s']:>21.0f} {r['ratio']:>5.2f}x")

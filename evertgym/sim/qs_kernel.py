@@ -702,7 +702,7 @@ def _schur_solve(hess, rhs, m, npc, mu0):
             bp = hess[:m, o:o + 3]
             if np.any(bp != 0.0):
                 bd = np.ascontiguousarray(bp) @ dinv[p]
-                schur -= bd @ bp.T
+                schur -= bd @ np.ascontiguousarray(bp.T)
                 r -= bd @ np.ascontiguousarray(rhs[o:o + 3])
         if ok:
             xs, shift = _cholesky_solve(schur, r, 0.0)
@@ -740,6 +740,7 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
     res_m = np.inf
     res_f = np.inf
     shift = 0.0  # the last Levenberg shift, warm start of the next (a tenth of it)
+    damp = 0.0  # Levenberg-Marquardt damping: grows while steps are cut short, shrinks when they are taken whole
     for it in range(max_iter + 1):
         grad, hess = grad_hess(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
                                wa, wb, wpiece, wvert, wrad, pc0, u, pairs, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam,
@@ -755,7 +756,7 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
             return CONVERGED, it, res_m, res_f
         if it == max_iter:
             break
-        step, shift = _schur_solve(hess, -grad, m, npc, 0.1 * shift)
+        step, shift = _schur_solve(hess, -grad, m, npc, max(0.1 * shift, damp))
         if shift < 0:
             return LINE_SEARCH_FAILED, it, res_m, res_f
         # limit the step: no joint turns by more than 0.5 rad, no node moves more than max_move
@@ -794,6 +795,15 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
             alpha *= 0.5
         if not accepted:
             return LINE_SEARCH_FAILED, it, res_m, res_f
+        # an indefinite model (a kink's plateau under compression) gives long steps that the line search
+        # cuts: damp the next step instead (a trust region in Levenberg-Marquardt's form)
+        if alpha < 0.1 * scale:
+            dmax = 0.0
+            for i in range(n):
+                dmax = max(dmax, abs(hess[i, i]))
+            damp = max(10.0 * max(damp, shift), 1e-6 * dmax)
+        elif alpha >= 0.5 * scale:
+            damp *= 0.1
         phi[:] = trial_phi
         u[:, :] = u_try
         # rebuild the pair list once anything has moved by a step's length since it was built

@@ -1,0 +1,90 @@
+"""The two engines side by side on one core: env steps per second, peak RSS of one env, and where
+the quasi-static engine's time goes (equilibrium solves per step, Newton iterations per solve).
+
+Each (env, engine) run is a fresh process pinned to one CPU that builds the env, resets it and
+plays ``--steps`` steps of uniform random actions with a fixed seed (the same actions for both
+engines); runs alternate between the engines (ABBA) and the best of ``--repeats`` is kept.
+Peak RSS is the process's ``ru_maxrss`` after its run (the interpreter, numpy, pymunk and numba
+included).
+
+    python scripts/bench_engines.py                      # UBend-v0 and Colon-v0, 200 steps, 3 repeats
+    python scripts/bench_engines.py --env evertgym/UBend-v0 --steps 100 --repeats 1 --json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+
+_CHILD = r"""
+import json, os, resource, sys, time
+env_id, engine, steps, seed = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4])
+if hasattr(os, "sched_setaffinity"):
+    os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
+import numpy as np
+import gymnasium as gym
+import evertgym  # noqa: F401  (registers the envs)
+env = gym.make(env_id, sim_config={"engine": engine})
+rng = np.random.default_rng(seed)
+env.reset(seed=seed)
+if engine == "quasistatic":  # compile (or load) the kernel outside the timing
+    env.step(np.zeros(1, np.float32)); env.reset(seed=seed)
+t0 = time.perf_counter()
+solves = iters = 0
+for _ in range(steps):
+    _, _, term, trunc, info = env.step(rng.uniform(-1, 1, 1).astype(np.float32))
+    if term or trunc:
+        solves += info.get("solves", 0); iters += info.get("newton_iterations", 0)
+        env.reset()
+wall = time.perf_counter() - t0
+solves += info.get("solves", 0); iters += info.get("newton_iterations", 0)
+print(json.dumps({"steps_per_s": steps / wall, "rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+                  "solves_per_step": solves / steps, "iterations_per_solve": iters / solves if solves else 0.0}))
+"""
+
+
+def run(env_id: str, engine: str, steps: int, seed: int) -> dict:
+    out = subprocess.run([sys.executable, "-c", _CHILD, env_id, engine, str(steps), str(seed)], capture_output=True, text=True,
+                         check=True, env=dict(os.environ, PYTHONWARNINGS="ignore"))
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def main(argv: list[str] | None = None) -> dict:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--env", action="append", help="env id (repeatable); default UBend-v0 and Colon-v0")
+    ap.add_argument("--steps", type=int, default=200)
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args(argv)
+    if not (1 <= args.steps <= 100000 and 1 <= args.repeats <= 20):
+        ap.error("--steps must be in [1, 100000] and --repeats in [1, 20]")
+    ids = args.env or ["evertgym/UBend-v0", "evertgym/Colon-v0"]
+    rows = []
+    for env_id in ids:
+        best: dict[str, dict] = {}
+        for k in range(args.repeats):
+            for engine in (("dynamic", "quasistatic") if k % 2 == 0 else ("quasistatic", "dynamic")):
+                r = run(env_id, engine, args.steps, k)
+                if engine not in best or r["steps_per_s"] > best[engine]["steps_per_s"]:
+                    best[engine] = r
+        rows.append({"env_id": env_id, **{f"{e}_{key}": v for e, r in best.items() for key, v in r.items()},
+                     "ratio": best["quasistatic"]["steps_per_s"] / best["dynamic"]["steps_per_s"]})
+    result = {"steps": args.steps, "repeats": args.repeats, "rows": rows}
+    if args.json:
+        print(json.dumps(result, indent=1))
+    else:
+        print(f"best of {args.repeats} alternating runs of {args.steps} random-action steps, one core, a fresh process each")
+        print(f"{'env_id':22s} {'dynamic st/s':>12s} {'quasistatic st/s':>16s} {'ratio':>6s} {'RSS MB dyn/qs':>14s} "
+              f"{'solves/step':>11s} {'Newton it/solve':>15s}")
+        for r in rows:
+            print(f"{r['env_id']:22s} {r['dynamic_steps_per_s']:>12.1f} {r['quasistatic_steps_per_s']:>16.1f} {r['ratio']:>5.2f}x "
+                  f"{r['dynamic_rss_mb']:>6.0f}/{r['quasistatic_rss_mb']:<7.0f} {r['quasistatic_solves_per_step']:>11.1f} "
+                  f"{r['quasistatic_iterations_per_solve']:>15.1f}")
+    return result
+
+
+if __name__ == "__main__":
+    main()
