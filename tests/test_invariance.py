@@ -107,3 +107,41 @@ def test_invariance_full_size(tmp_path):
         assert row["ubend_max_cell_change"] <= CRITERIA["ubend_max_cell_change_of_12"], table
         assert row["colon_same"], table
         assert abs(row["operator_change"]) <= CRITERIA["operator_max_change"] + 1e-9, table
+
+
+def test_quasistatic_settings_vary_only_its_own_numerical_knobs():
+    from evertgym.experiments.invariance import QUASISTATIC_CRITERIA, QUASISTATIC_SETTINGS, compare
+    from evertgym.sim.config import DYNAMIC_ONLY, SimConfig
+
+    assert QUASISTATIC_SETTINGS[0] == ("quasistatic", {"engine": "quasistatic"})
+    for _, sim in QUASISTATIC_SETTINGS:
+        cfg = SimConfig(**sim)  # valid, and not a mass, inertia or damping setting among them
+        assert cfg.engine == "quasistatic" and not set(sim) & set(DYNAMIC_ONLY)
+
+    def run(stall):
+        return {"sim": {}, "ubend": [{"reduction": 0.0, "radius_mm": 30.0, "trials": 12, "successes": 5}],
+                "colon": [{"reduction": 0.0, "passed": False, "stall_position_mm": stall, "peak_pressure_kpa": 8.0}],
+                "operator": {"success_rate": 0.5, "episodes": 50}}
+
+    ref = run(300.0)
+    assert compare("a", run(301.5), ref, 12, QUASISTATIC_CRITERIA)["holds"]
+    moved = compare("b", run(303.0), ref, 12, QUASISTATIC_CRITERIA)  # the stall moved by 3 mm: more than 2
+    assert moved["colon_stall_change_mm"] == pytest.approx(3.0) and not moved["holds"]
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(3600)
+def test_quasistatic_invariance(tmp_path):
+    """Issue 25's criteria on a subset (the five paper radii from 40 to 20 mm, 4 trials per cell, both
+    colon robots; the operator's Colon-v0 episodes are not run, the engine being too slow there): the
+    growth increment halved and the tolerance ten times tighter move no U-bend cell by more than 1
+    trial and no colon outcome or stall (by 2 mm).  EVERTGYM_INVARIANCE_DIR keeps the stores."""
+    from evertgym.experiments.invariance import QUASISTATIC_CRITERIA, QUASISTATIC_SETTINGS, format_table, run_invariance
+
+    out = os.environ.get("EVERTGYM_INVARIANCE_DIR") or tmp_path
+    result = run_invariance(out, trials=4, episodes=0, radii=(40.0, 35.0, 30.0, 25.0, 20.0), settings=QUASISTATIC_SETTINGS,
+                            workers=2, criteria=QUASISTATIC_CRITERIA)
+    table = format_table(result)
+    for row in result["rows"]:
+        assert row["ubend_max_cell_change"] <= 1, table
+        assert row["colon_same"], table
