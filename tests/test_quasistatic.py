@@ -113,3 +113,34 @@ def test_colon_stall_does_not_move_with_a_1e_9_change_of_the_command():
         assert sim.stalled and sim.solve_stats["solve_failures"] == 0
         stalls.append(sim.length)
     assert abs(stalls[0] - stalls[1]) < 1e-4
+
+
+@pytest.mark.parametrize("argv, says", [
+    (["reproduce", "ubend", "--radii", "50"], "--radii = 50.0 is out of range"),
+    (["reproduce", "ubend", "--radii", "30,x"], "--radii = '30,x': expected comma-separated numbers"),
+    (["reproduce", "ubend", "--reductions", "0.6"], "--reductions = 0.6 is out of range"),
+    (["reproduce", "ubend", "--sim", '{"engine": "quasistatic", "mass_ratio": 0.1}'], "mass_ratio = 0.1 means nothing to engine"),
+    (["reproduce", "colon", "--sim", '{"no_such_field": 1}'], "--sim: unknown SimConfig fields ['no_such_field']"),
+    (["reproduce", "colon", "--sim", "[1,"], "--sim = '[1,': expected a JSON object"),
+    (["bench", "env", "--sim", '{"engine": "quasistatic"}'], "--sim is only used with --against"),
+])
+def test_bad_engine_input_is_one_line_before_work_starts(argv, says, capsys, tmp_path):
+    from evertgym.cli import main
+
+    assert main([*argv, *(["--db", str(tmp_path / "s.sqlite")] if argv[0] == "reproduce" else [])]) == 2
+    err = capsys.readouterr().err.strip()
+    assert says in err and len(err.splitlines()) == 1
+    assert not (tmp_path / "s.sqlite").exists()  # nothing ran
+
+
+def test_reproduce_ubend_runs_one_cell_on_the_quasistatic_engine(capsys, tmp_path):
+    from evertgym.cli import main
+
+    argv = ["reproduce", "ubend", "--sim", '{"engine": "quasistatic"}', "--radii", "40", "--reductions", "0", "--trials", "1",
+            "--db", str(tmp_path / "u.sqlite"), "--backend", "serial", "--json"]
+    assert main(argv) == 0
+    import json
+
+    out = json.loads(capsys.readouterr().out)
+    assert [(r["reduction"], r["radius_mm"], r["trials"]) for r in out["rows"]] == [(0.0, 40.0, 1)]
+    assert out["solves"]["solves"] > 0 and out["solves"]["solve_failures"] == 0
