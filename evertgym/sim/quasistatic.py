@@ -46,16 +46,14 @@ import numpy as np
 import pymunk
 
 from evertgym.design import TubeDesign
-from evertgym.limits import MAX_EVENTS
 from evertgym.model.eversion import EversionThreshold, tail_weight_pressure
 from evertgym.model.params import ModelParams, load_params
-from evertgym.model.pressure import _END_SLOPE, KINK_MOMENT_FRACTION, InflatedBeamLaw, wrinkled_moment_fraction
+from evertgym.model.pressure import _END_SLOPE, KINK_MOMENT_FRACTION, wrinkled_moment_fraction
 from evertgym.sim import qs_kernel as qk
 from evertgym.sim.config import SimConfig
 from evertgym.sim.discretize import RESIDUAL_STIFFNESS_FRACTION
 from evertgym.sim.events import SimEvent
-from evertgym.sim.growth import GrowthLaw, PressureRegulator
-from evertgym.sim.material import material_tables
+from evertgym.sim.tube import GrowingTube
 
 #: Pressure (Pa) below which the solver's force scale stops shrinking (a limp tube).
 _P_SCALE_FLOOR = 1000.0
@@ -159,7 +157,7 @@ class SolveStats:
                 "max_residual_ratio": self.max_residual_ratio, "rejoined_joints": self.rejoined}
 
 
-class QuasiStaticSim:
+class QuasiStaticSim(GrowingTube):
     """A growing eversion robot as a sequence of static equilibria (see the module docstring).
 
     The constructor and the public interface are :class:`~evertgym.sim.simulator.EversionSim`'s
@@ -197,25 +195,7 @@ class QuasiStaticSim:
         self.base = np.asarray(base, dtype=float)
         self.base_angle = math.atan2(d[1], d[0])
 
-        ds = cfg.segment_length_m
-        self.ds = ds
-        tables = material_tables(design, ds, self.params)
-        self.nodes = tables.nodes
-        self._ref_section = tables.section
-        self._e_ref = self._ref_section.e_eff_pa
-        self._c_ref = np.asarray(tables.c_ref)
-        self._r_cell = np.asarray(tables.r_cell)
-        self._r3 = self._r_cell**3
-        self._law = InflatedBeamLaw.for_design(design)
-        self._radius_fine = (tables.radius_s, tables.radius_r)
-        self._band_zones = [(z.start_m - 2 * ds, z.end_m + 2 * ds) for z in self._ref_section.zones]
-        self._band_starts = [(i, b.position_m - b.width_m / 2, b.reduction) for i, b in enumerate(design.bands)]
-
-        self.threshold = threshold or EversionThreshold.calibrated()
-        self._bare_threshold = (float(self.threshold(0.0)), math.pi * design.radius_m * design.radius_m)
-        self.growth = GrowthLaw(self.threshold, cfg.growth_gain_m_per_s_per_pa, cfg.bend_loss_per_rad, cfg.max_growth_speed_m_per_s)
-        self.regulator = PressureRegulator(cfg.regulator_tau_s)
-        self.vertical_tail = vertical_tail
+        self._init_tube(design, cfg, threshold, vertical_tail)
 
         # walls: arrays for the kernel; the compliant wall's pieces and linear springs
         handles = self.scene_handles
@@ -296,14 +276,6 @@ class QuasiStaticSim:
         self._publish()
 
     # ---- construction -----------------------------------------------------------
-    def _near_band(self, s: float) -> bool:
-        return any(lo <= s <= hi for lo, hi in self._band_zones)
-
-    def _radius_between(self, a: float, b: float) -> float:
-        s, r = self._radius_fine
-        m = (s >= a - 1e-12) & (s <= b + 1e-12)
-        return float(np.max(r[m])) if np.any(m) else float(np.interp(0.5 * (a + b), s, r))
-
     def _start_chain(self, length: float) -> None:
         n = max(1, int(math.floor(length / self.ds + 1e-9)))
         lens = [self.ds if j < n - 1 else length - (n - 1) * self.ds for j in range(n)]
@@ -393,24 +365,6 @@ class QuasiStaticSim:
         return self._stats.to_dict()
 
     # ---- pressure, growth, clock -----------------------------------------------------
-    def set_pressure_command(self, pressure_pa: float) -> float:
-        return self.regulator.set_command(pressure_pa)
-
-    @property
-    def pressure(self) -> float:
-        return self.regulator.pressure
-
-    def _tip_threshold(self) -> tuple[float, float]:
-        s_tip = self.length
-        rho = 0.0
-        for z in self._ref_section.zones:
-            if z.start_m <= s_tip <= z.end_m:
-                rho = max(rho, z.reduction * float(z.shape(s_tip)))
-        if rho == 0.0:
-            return self._bare_threshold
-        r_tip = self.design.radius_m * (1 - rho)
-        return float(self.threshold(rho)), math.pi * r_tip * r_tip
-
     def _turning(self) -> float:
         return float(np.sum(np.abs(self.phi)))
 
@@ -452,9 +406,6 @@ class QuasiStaticSim:
             f_max = max(f_max, self._tip_force_norm)
         self._step_mean_pressure = p_sum / n_steps if n_steps > 0 else self.pressure
         self._step_max_contact = f_max
-
-    def run(self, duration_s: float) -> None:
-        self.step(int(round(duration_s / self.cfg.dt_s)))
 
     def _increment(self) -> float:
         """Growth increment (m): ``growth_increment_m`` near a wall, up to a segment in free space
@@ -824,39 +775,8 @@ class QuasiStaticSim:
         return j
 
     # ---- events, stalls ---------------------------------------------------------------------
-    def _stall_update(self, v: float, dt: float) -> None:
-        if v < self.cfg.stall_speed_m_per_s and self.length < self.design.length_m:
-            self._stall_clock += dt
-            if self._stall_clock >= self.cfg.stall_time_s and not self._stalled:
-                self._stalled = True
-                self.stall_count += 1
-                self._event("stall", pressure_kpa=round(self.pressure / 1e3, 4))
-        else:
-            self._stall_clock = 0.0
-            self._stalled = False
-
-    @property
-    def stalled(self) -> bool:
-        return self._stalled
-
     @property
     def at_rest(self) -> bool:
         """Always true between steps: every state this engine shows is an equilibrium."""
         return True
 
-    @property
-    def step_mean_pressure(self) -> float:
-        return self._step_mean_pressure
-
-    @property
-    def step_max_contact_force(self) -> float:
-        return self._step_max_contact
-
-    @property
-    def in_contact(self) -> bool:
-        return self._in_contact
-
-    def _event(self, kind: str, **detail) -> None:
-        self.event_counts[kind] = self.event_counts.get(kind, 0) + 1
-        if len(self.events) < MAX_EVENTS:
-            self.events.append(SimEvent(round(self.t, 6), kind, round(self.length * 1e3, 3), detail))

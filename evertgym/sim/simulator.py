@@ -37,10 +37,9 @@ import numpy as np
 import pymunk
 
 from evertgym.design import TubeDesign
-from evertgym.limits import MAX_EVENTS
 from evertgym.model.eversion import EversionThreshold, tail_weight_pressure
 from evertgym.model.params import ModelParams, load_params
-from evertgym.model.pressure import KINK_MOMENT_FRACTION, InflatedBeamLaw
+from evertgym.model.pressure import KINK_MOMENT_FRACTION
 from evertgym.model.section_law import compression_capacity, distal_compression, tail_tension, wall_tension
 from evertgym.model.section_law import wrinkling_moment as wrinkling_moment_of_wall
 from evertgym.sim.chipmunk import arbiter_impulses, body_angles, set_rotary_stiffness, set_spring_stiffness
@@ -48,9 +47,8 @@ from evertgym.sim.config import SimConfig
 from evertgym.sim.discretize import joint_moment, segment_inertia
 from evertgym.sim.dormant import WALL_REST_SPEED_M_PER_S, DormantWalls
 from evertgym.sim.events import SimEvent
-from evertgym.sim.growth import GrowthLaw, PressureRegulator
 from evertgym.sim.links import Link, make_link
-from evertgym.sim.material import material_tables
+from evertgym.sim.tube import GrowingTube
 
 ROBOT_COLLISION_TYPE = 1
 _ROBOT_GROUP = 1
@@ -62,7 +60,7 @@ class NumericalInstabilityError(RuntimeError):
     """The simulation produced non-finite or exploding state; the message names the setting to change."""
 
 
-class EversionSim:
+class EversionSim(GrowingTube):
     """A growing eversion robot in a pymunk space.
 
     Parameters
@@ -125,29 +123,7 @@ class EversionSim:
         self._beta = cfg.damping**cfg.dt_s  # spring impulse kept after Chipmunk's damping
         self._damping_rate = -math.log(cfg.damping)  # velocity decay rate (1/s)
 
-        # material tables over all nodes of the body (joint j at s_j = j ds)
-        ds = cfg.segment_length_m
-        self.ds = ds
-        tables = material_tables(design, ds, self.params)
-        self.nodes = tables.nodes
-        self._node_list = tables.nodes.tolist()
-        self._ref_section = tables.section
-        self._e_ref = self._ref_section.e_eff_pa
-        self._c_ref = tables.c_ref
-        self._cs_ref = tables.cs_ref
-        self._r_cell = tables.r_cell
-        self._r3 = tables.r_cell**3
-        self._law = InflatedBeamLaw.for_design(design)
-        self._radius_fine = (tables.radius_s, tables.radius_r)
-        # where the tip's material changes radius (m), and where each band starts (m)
-        self._band_zones = [(z.start_m - 2 * ds, z.end_m + 2 * ds) for z in self._ref_section.zones]
-        self._band_starts = [(i, b.position_m - b.width_m / 2, b.reduction) for i, b in enumerate(design.bands)]
-
-        self.threshold = threshold or EversionThreshold.calibrated()
-        self._bare_threshold = (float(self.threshold(0.0)), math.pi * design.radius_m * design.radius_m)
-        self.growth = GrowthLaw(self.threshold, cfg.growth_gain_m_per_s_per_pa, cfg.bend_loss_per_rad, cfg.max_growth_speed_m_per_s)
-        self.regulator = PressureRegulator(cfg.regulator_tau_s)
-        self.vertical_tail = vertical_tail
+        self._init_tube(design, cfg, threshold, vertical_tail)
 
         # state
         self.t = 0.0
@@ -198,16 +174,6 @@ class EversionSim:
         self._apply_pressure(0.0)
 
     # ---- construction ----------------------------------------------------------
-    def _radius_between(self, a: float, b: float) -> float:
-        """Collision radius of material [a, b]: its envelope (largest radius), so no part of
-        the tube can sink into a wall; a segment wholly inside a band strip gets the band's."""
-        s, r = self._radius_fine
-        m = (s >= a - 1e-12) & (s <= b + 1e-12)
-        return float(np.max(r[m])) if np.any(m) else float(np.interp(0.5 * (a + b), s, r))
-
-    def _near_band(self, s: float) -> bool:
-        return any(lo <= s <= hi for lo, hi in self._band_zones)
-
     def _mass_props(self, j: int) -> tuple[float, float]:
         """Scaled (mass, inertia) for the stiffest state of the adjacent joints (8 kPa)."""
         nxt = min(j + 1, len(self._c_ref) - 1)
@@ -356,14 +322,6 @@ class EversionSim:
         return out
 
     # ---- stepping ---------------------------------------------------------------
-    def set_pressure_command(self, pressure_pa: float) -> float:
-        """Command the regulator (Pa, clipped to [0, 8 kPa]); returns the clipped command."""
-        return self.regulator.set_command(pressure_pa)
-
-    @property
-    def pressure(self) -> float:
-        return self.regulator.pressure
-
     @property
     def tip_position(self) -> np.ndarray:
         b, sh = self.bodies[-1], self.shapes[-1]
@@ -402,27 +360,6 @@ class EversionSim:
         between the tip and the first active joint."""
         cap = self.compression_capacity
         return float(np.min(cap)) if len(cap) else 0.0
-
-    @property
-    def step_mean_pressure(self) -> float:
-        """Mean regulated pressure (Pa) over the steps of the last :meth:`step` call."""
-        return self._step_mean_pressure
-
-    @property
-    def step_max_contact_force(self) -> float:
-        """Largest tip contact force magnitude ``|tip_contact|`` (N) over the steps of the last
-        :meth:`step` call (the last value held while the rest lock holds)."""
-        return self._step_max_contact
-
-    @property
-    def in_contact(self) -> bool:
-        """Whether the tip segment touched a wall in the last step."""
-        return self._in_contact
-
-    def _event(self, kind: str, **detail) -> None:
-        self.event_counts[kind] = self.event_counts.get(kind, 0) + 1
-        if len(self.events) < MAX_EVENTS:  # bounded: a long cycling run keeps its memory flat
-            self.events.append(SimEvent(round(self.t, 6), kind, round(self.length * 1e3, 3), detail))
 
     def _tip_reaction(self) -> None:
         """Wall force on the tip body (N) and its component against growth.
@@ -515,18 +452,6 @@ class EversionSim:
         step so a tip leaving a band eases out from a wall instead of jumping into it."""
         target = self._radius_between(max(start, self.length - self.ds), self.length)
         return min(target, r_old + 0.5 * dl)
-
-    def _tip_threshold(self) -> tuple[float, float]:
-        """Eversion threshold (Pa) of the material at the tip, and the tip area (m^2)."""
-        s_tip = self.length
-        rho = 0.0
-        for z in self._ref_section.zones:
-            if z.start_m <= s_tip <= z.end_m:
-                rho = max(rho, z.reduction * float(z.shape(s_tip)))
-        if rho == 0.0:  # bare material: the same every step
-            return self._bare_threshold
-        r_tip = self.design.radius_m * (1 - rho)
-        return float(self.threshold(rho)), math.pi * r_tip * r_tip
 
     def _push_tip(self, p: float, p_y: float, area: float) -> None:
         """Rigid-column model: the everting tip's force on an obstacle ahead,
@@ -723,21 +648,6 @@ class EversionSim:
         """Whether the robot is held in static equilibrium by the rest lock."""
         return self._rest_pressure is not None
 
-    def _stall_update(self, v: float, dt: float) -> None:
-        if v < self.cfg.stall_speed_m_per_s and self.length < self.design.length_m:
-            self._stall_clock += dt
-            if self._stall_clock >= self.cfg.stall_time_s and not self._stalled:
-                self._stalled = True
-                self.stall_count += 1
-                self._event("stall", pressure_kpa=round(self.pressure / 1e3, 4))
-        else:
-            self._stall_clock = 0.0
-            self._stalled = False
-
-    @property
-    def stalled(self) -> bool:
-        return self._stalled
-
     def _check_finite(self) -> None:
         b = self.bodies[-1]
         vals = (b.position.x, b.position.y, b.angle, b.velocity.x, b.velocity.y)
@@ -747,11 +657,6 @@ class EversionSim:
                 f"inertia_factor (now {self.cfg.inertia_factor}) or iterations (now {self.cfg.iterations})"
             )
 
-    def run(self, duration_s: float) -> None:
-        """Advance by ``duration_s`` seconds."""
-        self.step(int(round(duration_s / self.cfg.dt_s)))
-
-    # ---- geometry out -----------------------------------------------------------
     def centreline(self) -> np.ndarray:
         """Node positions from the base to the tip (m), (n+1) x 2."""
         pts = [tuple(self.base)]
