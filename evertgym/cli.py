@@ -234,10 +234,14 @@ def cmd_bench_accuracy(args: argparse.Namespace) -> int:
     if args.json:
         print(dumps({"rows": result["rows"], "default": result["default"]}, default=float))
         return 0
-    print(f"{'setting':44s} {'force_err':>9s} {'pose_mm':>8s} {'ubend':>6s} {'wall/sim':>9s}")
+    print(f"{'setting':44s} {'force_err':>9s} {'pose_mm':>8s} {'ubend':>6s} {'vs_qs':>6s} {'wall/sim':>9s}")
+    current = result["default"].get("simconfig_default")
     for r in result["rows"]:
+        mark = " <- SimConfig default" if r["setting"] == current else ""
         print(f"{r.get('label', str(r['setting']))[:44]:44s} {100 * r['tip_force_error']:>8.2f}% {r['tip_pose_error_mm']:>8.2f} "
-              f"{r['ubend_disagreement']:>6.2f} {r['wall_s_per_sim_s']:>9.4f}")
+              f"{r['ubend_disagreement']:>6.2f} {r.get('ubend_disagreement_quasistatic', float('nan')):>6.2f} "
+              f"{r['wall_s_per_sim_s']:>9.4f}{mark}")
+    print("ubend: share of U-bend outcomes unlike the finest setting's; vs_qs: unlike the quasi-static engine's")
     print(f"default (fastest within 3%): {result['default'].get('label', result['default'])}")
     print("docs/benchmarks.md is written by: python scripts/bench_accuracy.py")
     return 0
@@ -393,7 +397,9 @@ def cmd_reproduce_ubend(args: argparse.Namespace) -> int:
     if args.plot:
         plot_ubend(result, args.plot)
     if args.json:
-        out = {"rows": result["rows"], "solves": result["solves"]}
+        out = {"rows": result["rows"]}
+        if result["solves"]["solves"]:  # the quasi-static engine's equilibrium solves and how many ended above tolerance
+            out["solves"] = result["solves"]
         if args.anatomy:
             out["jam_anatomy"] = result["jams"]
         print(dumps(out))

@@ -64,12 +64,13 @@ def versions() -> dict:
 def table(rows: list[dict]) -> list[str]:
     """Rows sorted by wall time, as fixed-width text (mm, ms, %)."""
     head = f"{'setting':<46}" + "".join(f"{h:>9}" for _, h, _, _ in FIELD_HEADERS)
-    head += f"{'force_err':>10}{'pose_mm':>8}{'ubend':>7}{'overlap':>8}{'colon_N':>8}{'wall/sim':>9}{'pareto':>7}"
+    head += f"{'force_err':>10}{'pose_mm':>8}{'ubend':>7}{'vs_qs':>7}{'overlap':>8}{'colon_N':>8}{'wall/sim':>9}{'pareto':>7}"
     lines = [head]
     for r in sorted(rows, key=lambda r: r["wall_s_per_sim_s"]):
         cells = "".join(f"{fmt.format(r['setting'][f] * k):>9}" for f, _, k, fmt in FIELD_HEADERS)
         force = f"{100 * r['tip_force_error']:.2f}%" + ("" if r["tensile_converged"] else "!")
         lines.append(f"{r['label']:<46}{cells}{force:>10}{r['tip_pose_error_mm']:>8.2f}{r['ubend_disagreement']:>7.2f}"
+                     f"{r.get('ubend_disagreement_quasistatic', float('nan')):>7.2f}"
                      f"{r.get('wall_overlap_mm', float('nan')):>8.2f}{r.get('colon_peak_force_n', float('nan')):>8.2f}"
                      f"{r['wall_s_per_sim_s']:>9.4f}{'*' if r['pareto'] else '':>7}")
     return lines
@@ -195,6 +196,9 @@ def markdown(result: dict, lines: list[str], skip_lines: list[str]) -> str:
         "```",
         *lines,
         "```",
+        "",
+        "`ubend`: the share of U-bend outcomes unlike the finest setting's; `vs_qs`: unlike the quasi-static "
+        "engine's on the same trials (`SimConfig(engine=\"quasistatic\")`, docs/quasistatic.md), a reference outside the sweep.",
         "",
         "## Pareto set",
         "",

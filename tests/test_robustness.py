@@ -366,10 +366,10 @@ def test_resume_skips_torn_checkpoints(tmp_path):
 
 
 def test_the_event_log_is_bounded(monkeypatch):
-    import evertgym.sim.simulator as simulator
+    import evertgym.sim.tube as tube  # both engines' event log
     from evertgym.sim import EversionSim
 
-    monkeypatch.setattr(simulator, "MAX_EVENTS", 5)
+    monkeypatch.setattr(tube, "MAX_EVENTS", 5)
     sim = EversionSim(TubeDesign(length_m=0.3))
     for _ in range(12):
         sim._event("stall", pressure_kpa=1.0)

@@ -19,6 +19,10 @@ mm where the name says so):
     within 15 s) whose outcome differs from the reference setting's (the finest:
     :data:`REFERENCE`).  A trial that raises ``NumericalInstabilityError`` counts as an
     outcome of its own.
+``ubend_disagreement_quasistatic``
+    The same fraction against the quasi-static engine's outcomes on the same trials
+    (``SimConfig(engine="quasistatic")``, whose answers do not move with its numerical settings:
+    docs/quasistatic.md): a reference that is not one of the settings measured.
 ``wall_s_per_sim_s``
     Wall-clock seconds per simulated second of a U-bend growth run (the bare 0.9 m robot in
     the 40 mm U-bend at 3 kPa for 10 s, through and past the bend), best of three.  Machine
@@ -294,9 +298,11 @@ def pareto_flags(rows: Sequence[Mapping], keys: Sequence[str], rtol: float = PAR
     return flags
 
 
-def measure_setting(setting: SweepSetting, refs: Mapping, trials: Sequence, reference_outcomes: Sequence[str] | None) -> dict:
+def measure_setting(setting: SweepSetting, refs: Mapping, trials: Sequence, reference_outcomes: Sequence[str] | None,
+                    quasistatic_outcomes: Sequence[str] | None = None) -> dict:
     """One row of the sweep (see the module docstring); ``reference_outcomes`` None means
-    this setting is the reference itself."""
+    this setting is the reference itself; ``quasistatic_outcomes`` (the quasi-static engine's
+    outcomes of ``trials``) adds ``ubend_disagreement_quasistatic``."""
     config = setting.config()
     row: dict = {"label": setting.label, "setting": setting.fidelity()}
     row.update(tensile_errors(config, refs))
@@ -304,6 +310,8 @@ def measure_setting(setting: SweepSetting, refs: Mapping, trials: Sequence, refe
     ref = outcomes if reference_outcomes is None else reference_outcomes
     row["ubend_disagreement"] = sum(a != b for a, b in zip(outcomes, ref)) / len(outcomes)
     row["ubend_outcomes"] = outcomes
+    if quasistatic_outcomes is not None:
+        row["ubend_disagreement_quasistatic"] = sum(a != b for a, b in zip(outcomes, quasistatic_outcomes)) / len(outcomes)
     row["wall_s_per_sim_s"] = ubend_growth_cost(config)
     row["wall_overlap_mm"] = wall_overlap_mm(config)
     row["colon_peak_force_n"] = colon_peak_force_n(config)
@@ -318,8 +326,8 @@ def run_sweep(settings: Sequence[SweepSetting] | None = None, quick: bool = Fals
     U-bend outcomes.  ``done`` maps labels to rows already measured (a resumed sweep reuses
     them); ``on_row`` is called with each new row as soon as it is measured.
 
-    Returns ``{"rows": [...], "default": {...}, "reference": label, "ubend_trials": [...],
-    "quick": bool}``.  Each row holds ``label``, ``setting`` (the fidelity fields, SI),
+    Returns ``{"rows": [...], "default": {...}, "reference": label, "quasistatic_outcomes":
+    [...], "ubend_trials": [...], "quick": bool}``.  Each row holds ``label``, ``setting`` (the fidelity fields, SI),
     ``tip_force_error``, ``tip_pose_error_mm``, ``ubend_disagreement``, ``wall_s_per_sim_s``,
     ``tensile_converged``, ``ubend_outcomes`` and ``pareto`` (Pareto-optimal in wall time,
     force error and U-bend disagreement), ``wall_overlap_mm`` (see :func:`wall_overlap_mm`) and
@@ -332,12 +340,16 @@ def run_sweep(settings: Sequence[SweepSetting] | None = None, quick: bool = Fals
     done = dict(done or {})
     trials = ubend_trials(quick)
     refs = rod_references()
+    qs_outcomes: list[str] | None = None  # measured once, when a setting is (a resumed sweep may need none)
     rows: list[dict] = []
     for i, setting in enumerate(settings):
         if setting.label in done:
             row = done[setting.label]
         else:
-            row = measure_setting(setting, refs, trials, None if i == 0 else rows[0]["ubend_outcomes"])
+            if qs_outcomes is None:
+                qs_config = SimConfig(engine="quasistatic")
+                qs_outcomes = [ubend_outcome(qs_config, r, bands, p) for r, bands, p in trials]
+            row = measure_setting(setting, refs, trials, None if i == 0 else rows[0]["ubend_outcomes"], qs_outcomes)
             if on_row is not None:
                 on_row(row)
         rows.append(row)
@@ -356,6 +368,7 @@ def run_sweep(settings: Sequence[SweepSetting] | None = None, quick: bool = Fals
         "rows": rows,
         "default": default,
         "reference": settings[0].label,
+        "quasistatic_outcomes": qs_outcomes,
         "ubend_trials": [{"radius_mm": r, "bands": [list(b) for b in bands], "pressure_kpa": p / 1e3}
                          for r, bands, p in trials],
         "quick": quick,

@@ -53,7 +53,7 @@ from evertgym.sim import qs_kernel as qk
 from evertgym.sim.config import SimConfig
 from evertgym.sim.discretize import RESIDUAL_STIFFNESS_FRACTION
 from evertgym.sim.events import SimEvent
-from evertgym.sim.tube import GrowingTube
+from evertgym.sim.tube import GrowingTube, check_buildable
 
 #: Pressure (Pa) below which the solver's force scale stops shrinking (a limp tube).
 _P_SCALE_FLOOR = 1000.0
@@ -178,8 +178,6 @@ class QuasiStaticSim(GrowingTube):
         threshold: EversionThreshold | None = None,
         params: ModelParams | None = None,
     ):
-        from evertgym.sim.simulator import check_buildable  # the same checks as the dynamic engine
-
         self.design = design
         self.cfg = cfg = config or SimConfig()
         check_buildable(design, cfg, scene)

@@ -48,7 +48,7 @@ from evertgym.sim.discretize import joint_moment, segment_inertia
 from evertgym.sim.dormant import WALL_REST_SPEED_M_PER_S, DormantWalls
 from evertgym.sim.events import SimEvent
 from evertgym.sim.links import Link, make_link
-from evertgym.sim.tube import GrowingTube
+from evertgym.sim.tube import GrowingTube, check_buildable
 
 ROBOT_COLLISION_TYPE = 1
 _ROBOT_GROUP = 1
@@ -667,17 +667,3 @@ class EversionSim(GrowingTube):
     def radii(self) -> np.ndarray:
         """Collision radius of each segment (m)."""
         return np.array([sh.radius for sh in self.shapes])
-
-
-def check_buildable(design: TubeDesign, cfg: SimConfig, scene=None) -> None:
-    """Raise ``ValueError`` naming the field unless the simulator can build ``design`` with
-    ``cfg`` in ``scene``: the body must hold the initial chain, and the
-    robot's diameter may not exceed the scene's narrowest lumen."""
-    need = cfg.initial_length_m
-    if design.length_m < need - 1e-12:
-        raise ValueError(f"length_m = {design.length_m:g} is out of range: allowed >= {need:g} m "
-                         "(the simulator's initial_length_m)")
-    lumen = getattr(scene, "lumen_width", None)
-    if lumen is not None and len(lumen) and design.diameter_m > float(np.min(lumen)) + 1e-9:
-        raise ValueError(f"diameter_m = {design.diameter_m:g} is out of range: allowed up to the scene's narrowest "
-                         f"lumen, {float(np.min(lumen)):g} m (the robot must fit the channel)")

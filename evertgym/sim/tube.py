@@ -140,3 +140,16 @@ class GrowingTube:
         """Whether the tip segment touched a wall in the last step."""
         return self._in_contact
 
+
+def check_buildable(design: TubeDesign, cfg: SimConfig, scene=None) -> None:
+    """Raise ``ValueError`` naming the field unless the simulator can build ``design`` with
+    ``cfg`` in ``scene``: the body must hold the initial chain, and the
+    robot's diameter may not exceed the scene's narrowest lumen."""
+    need = cfg.initial_length_m
+    if design.length_m < need - 1e-12:
+        raise ValueError(f"length_m = {design.length_m:g} is out of range: allowed >= {need:g} m "
+                         "(the simulator's initial_length_m)")
+    lumen = getattr(scene, "lumen_width", None)
+    if lumen is not None and len(lumen) and design.diameter_m > float(np.min(lumen)) + 1e-9:
+        raise ValueError(f"diameter_m = {design.diameter_m:g} is out of range: allowed up to the scene's narrowest "
+                         f"lumen, {float(np.min(lumen)):g} m (the robot must fit the channel)")
