@@ -185,13 +185,7 @@ class QuasiStaticSim(GrowingTube):
         self.space = pymunk.Space()
         self.scene = scene
         self.scene_handles = scene.build(self.space) if scene is not None else None
-        if base is None:
-            base = tuple(getattr(scene, "entry", (0.0, 0.0)))
-        if direction is None:
-            direction = tuple(getattr(scene, "entry_direction", (1.0, 0.0)))
-        d = np.asarray(direction, dtype=float)
-        self.base = np.asarray(base, dtype=float)
-        self.base_angle = math.atan2(d[1], d[0])
+        self._place_base(scene, base, direction)
 
         self._init_tube(design, cfg, threshold, vertical_tail)
 

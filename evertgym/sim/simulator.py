@@ -113,13 +113,7 @@ class EversionSim(GrowingTube):
         wall_bodies = getattr(self.scene_handles, "bodies", None)  # compliant wall pieces (an evertgym scene's handles)
         self._dormant = (DormantWalls(space, list(wall_bodies), cfg.wall_wake_margin_m, WALL_REST_SPEED_M_PER_S)
                          if cfg.dormant_walls and wall_bodies else None)
-        if base is None:
-            base = tuple(getattr(scene, "entry", (0.0, 0.0)))
-        if direction is None:
-            direction = tuple(getattr(scene, "entry_direction", (1.0, 0.0)))
-        d = np.asarray(direction, dtype=float)
-        self.base = np.asarray(base, dtype=float)
-        self.base_angle = math.atan2(d[1], d[0])
+        self._place_base(scene, base, direction)
         self._beta = cfg.damping**cfg.dt_s  # spring impulse kept after Chipmunk's damping
         self._damping_rate = -math.log(cfg.damping)  # velocity decay rate (1/s)
 

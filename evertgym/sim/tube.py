@@ -40,6 +40,16 @@ class GrowingTube:
     _step_max_contact: float
     _in_contact: bool
 
+    def _place_base(self, scene, base: tuple[float, float] | None, direction: tuple[float, float] | None) -> None:
+        """The base pin (m) and the initial growth direction: given, or the scene's entry."""
+        if base is None:
+            base = tuple(getattr(scene, "entry", (0.0, 0.0)))
+        if direction is None:
+            direction = tuple(getattr(scene, "entry_direction", (1.0, 0.0)))
+        d = np.asarray(direction, dtype=float)
+        self.base = np.asarray(base, dtype=float)
+        self.base_angle = math.atan2(d[1], d[0])
+
     def _init_tube(self, design: TubeDesign, cfg: SimConfig, threshold: EversionThreshold | None, vertical_tail: bool) -> None:
         """Material tables over all nodes of the body (joint ``j`` at ``s_j = j ds``), the threshold
         law, the growth law and the regulator."""
