@@ -9,6 +9,7 @@ tip, the growth law and the pressure regulator, stall detection and the event lo
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -39,6 +40,8 @@ class GrowingTube:
     _step_mean_pressure: float
     _step_max_contact: float
     _in_contact: bool
+    #: advance the clock by ``n_steps`` steps of ``cfg.dt_s`` (each engine steps its own way)
+    step: Callable[[int], None]
 
     def _place_base(self, scene, base: tuple[float, float] | None, direction: tuple[float, float] | None) -> None:
         """The base pin (m) and the initial growth direction: given, or the scene's entry."""
@@ -74,9 +77,6 @@ class GrowingTube:
         self.growth = GrowthLaw(self.threshold, cfg.growth_gain_m_per_s_per_pa, cfg.bend_loss_per_rad, cfg.max_growth_speed_m_per_s)
         self.regulator = PressureRegulator(cfg.regulator_tau_s)
         self.vertical_tail = vertical_tail
-
-    def step(self, n_steps: int = 1) -> None:  # pragma: no cover - each engine steps its own way
-        raise NotImplementedError
 
     def _radius_between(self, a: float, b: float) -> float:
         """Collision radius of material [a, b]: its envelope (largest radius), so no part of
