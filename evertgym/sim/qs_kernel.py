@@ -210,7 +210,7 @@ def contacts(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0
     nodes, theta = chain_nodes(theta0, n0, phi, seg_len)
     m = phi.shape[0]
     nw = wa.shape[0]
-    out = np.empty((m * 4 + 16, 11))
+    cand = np.empty((m * 8 + 16, 2), np.int64)  # the pairs whose bounding circles come within reach
     cnt = 0
     for k in range(m):
         ax = nodes[k, 0]
@@ -225,29 +225,23 @@ def contacts(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0
             reach = half + 0.5 * math.sqrt((dx - cx) ** 2 + (dy - cy) ** 2) + seg_rad[k] + wrad[w] + dhat + margin
             if (0.5 * (cx + dx) - mx) ** 2 + (0.5 * (cy + dy) - my) ** 2 > reach * reach:
                 continue
-            s, px, py, qx, qy, dist = _pair(ax, ay, bx, by, cx, cy, dx, dy, wvert[w])
-            gap = dist - seg_rad[k] - wrad[w]
-            if gap >= dhat + margin:
-                continue
-            if cnt == out.shape[0]:
-                bigger = np.empty((2 * cnt, 11))
-                bigger[:cnt] = out
-                out = bigger
-            nx = (px - qx) / dist if dist > 0 else 0.0
-            ny = (py - qy) / dist if dist > 0 else 0.0
-            out[cnt, 0] = k
-            out[cnt, 1] = w
-            out[cnt, 2] = s
-            out[cnt, 3] = 0.0
-            out[cnt, 4] = px
-            out[cnt, 5] = py
-            out[cnt, 6] = qx
-            out[cnt, 7] = qy
-            out[cnt, 8] = nx
-            out[cnt, 9] = ny
-            out[cnt, 10] = gap
+            if cnt == cand.shape[0]:
+                bigger = np.empty((2 * cnt, 2), np.int64)
+                bigger[:cnt] = cand
+                cand = bigger
+            cand[cnt, 0] = k
+            cand[cnt, 1] = w
             cnt += 1
-    return out[:cnt]
+    return pair_rows(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, cand[:cnt], dhat, margin)
+
+
+@nb.njit(cache=True, nogil=True)
+def _pair_at(nodes, k, w, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u):
+    """Pair ``(k, w)`` now: the wall feature's end points, then :func:`_pair`'s
+    ``(s, px, py, qx, qy, dist)`` and the gap between the surfaces (m)."""
+    cx, cy, dx, dy = wall_world(w, wa, wb, wpiece, pc0, u)
+    s, px, py, qx, qy, dist = _pair(nodes[k, 0], nodes[k, 1], nodes[k + 1, 0], nodes[k + 1, 1], cx, cy, dx, dy, wvert[w])
+    return cx, cy, dx, dy, s, px, py, qx, qy, dist, dist - seg_rad[k] - wrad[w]
 
 
 @nb.njit(cache=True, nogil=True)
@@ -259,9 +253,7 @@ def pair_rows(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc
     for c in range(cand.shape[0]):
         k = cand[c, 0]
         w = cand[c, 1]
-        cx, cy, dx, dy = wall_world(w, wa, wb, wpiece, pc0, u)
-        s, px, py, qx, qy, dist = _pair(nodes[k, 0], nodes[k, 1], nodes[k + 1, 0], nodes[k + 1, 1], cx, cy, dx, dy, wvert[w])
-        gap = dist - seg_rad[k] - wrad[w]
+        _, _, _, _, s, px, py, qx, qy, dist, gap = _pair_at(nodes, k, w, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u)
         if gap >= dhat + margin:
             continue
         out[cnt, 0] = k
@@ -306,11 +298,7 @@ def energy(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, l
         e += w_
     nodes, theta = chain_nodes(theta0, n0, phi, seg_len)
     for c in range(pairs.shape[0]):
-        k = pairs[c, 0]
-        w = pairs[c, 1]
-        cx, cy, dx, dy = wall_world(w, wa, wb, wpiece, pc0, u)
-        s, px, py, qx, qy, dist = _pair(nodes[k, 0], nodes[k, 1], nodes[k + 1, 0], nodes[k + 1, 1], cx, cy, dx, dy, wvert[w])
-        gap = dist - seg_rad[k] - wrad[w]
+        gap = _pair_at(nodes, pairs[c, 0], pairs[c, 1], seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u)[10]
         if gap <= 0.0:
             return np.inf
         b, _, _ = _barrier(gap, dhat)
@@ -422,9 +410,7 @@ def _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0,
     for c in range(pairs.shape[0]):
         k = pairs[c, 0]
         w = pairs[c, 1]
-        cx, cy, dx, dy = wall_world(w, wa, wb, wpiece, pc0, u)
-        s, px, py, qx, qy, dist = _pair(nodes[k, 0], nodes[k, 1], nodes[k + 1, 0], nodes[k + 1, 1], cx, cy, dx, dy, wvert[w])
-        gap = dist - seg_rad[k] - wrad[w]
+        cx, cy, dx, dy, s, px, py, qx, qy, dist, gap = _pair_at(nodes, k, w, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u)
         if gap >= dhat or gap <= 0.0:
             continue
         _, b1, b2 = _barrier(gap, dhat)

@@ -96,7 +96,7 @@ class _Walls:
     """Every wall feature of a scene as arrays (SI): its segments, then their distinct end points
     (``vertex`` true; ``a == b``), for IPC's point-edge pairs.  End points ``a``, ``b`` are world
     coordinates for static walls and the piece's frame for compliant ones; ``piece`` (-1 static),
-    ``radius`` (of the wall's shape), ``friction``; ``index`` maps a pymunk shape to its features."""
+    ``radius`` (of the wall's shape), ``friction``."""
 
     a: np.ndarray
     b: np.ndarray
@@ -104,7 +104,6 @@ class _Walls:
     vertex: np.ndarray
     radius: np.ndarray
     friction: np.ndarray
-    index: dict
 
 
 def _read_walls(space: pymunk.Space, handles, piece_index: dict) -> _Walls:
@@ -139,7 +138,7 @@ def _read_walls(space: pymunk.Space, handles, piece_index: dict) -> _Walls:
     arr = np.array([r[:4] for r in rows], float).reshape(-1, 4)
     return _Walls(arr[:, :2].copy(), arr[:, 2:].copy(), np.array([r[4] for r in rows], np.int64),
                   np.array([r[5] for r in rows], np.bool_), np.array([r[6] for r in rows], float),
-                  np.array([r[7] for r in rows], float), {})
+                  np.array([r[7] for r in rows], float))
 
 
 @dataclass
@@ -257,7 +256,6 @@ class QuasiStaticSim(GrowingTube):
         self._contact_segs: set[int] = set()
         self.active_start = 0
         self._tip_clearance = math.inf
-        self._mw_used = np.zeros(len(self.nodes))
         self._predict: tuple[np.ndarray, float] | None = None
         self._rejoin: tuple[int, int] | None = None  # (joint, solves since) of the last widening
         self._rate: np.ndarray | None = None
@@ -411,16 +409,15 @@ class QuasiStaticSim(GrowingTube):
     def _snapshot(self) -> tuple:
         return (self.phi.copy(), self.seg_len.copy(), self.seg_rad.copy(), self.length, self._u_all.copy(), dict(self._fric),
                 self._seg_force.copy(), self._seg_moment.copy(), set(self._contact_segs), self.tip_force, self.tip_contact.copy(),
-                self._tip_clearance, self.active_start, self._mw_used.copy())
+                self._tip_clearance, self.active_start)
 
     def _restore(self, snap: tuple) -> None:
         (phi, seg_len, seg_rad, self.length, u, fric, seg_force, seg_moment, contact_segs, self.tip_force,
-         tip_contact, self._tip_clearance, self.active_start, mw_used) = snap
+         tip_contact, self._tip_clearance, self.active_start) = snap
         self.phi, self.seg_len, self.seg_rad, self._fric = phi.copy(), seg_len.copy(), seg_rad.copy(), dict(fric)
         self._u_all = u.copy()
         self._seg_force, self._seg_moment, self._contact_segs = seg_force.copy(), seg_moment.copy(), set(contact_segs)
         self.tip_contact = tip_contact.copy()
-        self._mw_used = mw_used.copy()
 
     def _advance(self, p: float) -> None:
         """Grow by the pending length at pressure ``p`` in increments of at most
@@ -549,7 +546,7 @@ class QuasiStaticSim(GrowingTube):
                 self._bands_reached.add(i)
                 self._event("band_at_tip", band=i, reduction=reduction)
         moments = self.joint_moments()
-        mc = 2.0 * self._mw_used[: len(moments)]
+        mc = 2.0 * self._mw_all[: len(moments)]
         kinked = np.nonzero(np.abs(moments) >= KINK_MOMENT_FRACTION * mc)[0] if np.any(mc > 0) else ()
         for j in kinked:
             if int(j) not in self._kinked:
@@ -637,7 +634,7 @@ class QuasiStaticSim(GrowingTube):
         sf = np.cumsum(self._seg_force[::-1], axis=0)[::-1]
         sm = np.cumsum(self._seg_moment[::-1])[::-1]
         ext = sm[:a] - (nodes[:a, 0] * sf[:a, 1] - nodes[:a, 1] * sf[:a, 0])
-        own = qk.joint_moments(self.phi[:a], self._k_all[:a], self._mw_used[:a], *_LAW[:3], _LAW[3],
+        own = qk.joint_moments(self.phi[:a], self._k_all[:a], self._mw_all[:a], *_LAW[:3], _LAW[3],
                                RESIDUAL_STIFFNESS_FRACTION)
         bad = np.nonzero(np.abs(own - ext) > tol_m)[0]
         return int(bad[0]) if len(bad) else None
@@ -747,7 +744,6 @@ class QuasiStaticSim(GrowingTube):
             self._seg_moment = np.concatenate([self._seg_moment, np.zeros(n - len(self._seg_moment))])[:n]
         self._seg_force[a:] = acc_f
         self._seg_moment[a:] = acc_m
-        self._mw_used[a : a + m] = mw_j
         self._contact_segs = {s for s in self._contact_segs if s < a} | {a + int(k) for k in rows[:, 0]}
         self.tip_force = max(0.0, float(tip[0]))
         self.tip_contact = np.array([tip[1], tip[2]])
