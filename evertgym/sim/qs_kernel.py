@@ -393,6 +393,28 @@ def _rank1(hess, smat, m, k, px, py, nodes, dirx, diry, piece, pc_x, pc_y, wx, w
 
 
 @nb.njit(cache=True, nogil=True)
+def _apply_force(m, k, s, px, py, qx, qy, fx, fy, p, pc0, u, ex, ey, acc_f, acc_m, acc_fx, tip, grad):
+    """A wall force ``f`` (N) on the robot at ``p`` (parameter ``s`` of segment ``k``): into the
+    segment sums, the tip's reaction against growth (``-s f . e_tip``) and total force if ``k`` is the
+    tip segment, and the opposite force at ``q`` on wall piece ``p`` (if any) into ``grad``.  Returns
+    the piece's current centre (0, 0 for a static wall)."""
+    _add_point_force(k, px, py, fx, fy, acc_f, acc_m, acc_fx)
+    if k == m - 1:
+        tip[0] -= s * (fx * ex + fy * ey)
+        tip[1] += fx
+        tip[2] += fy
+    if p < 0:
+        return 0.0, 0.0
+    ccx = pc0[p, 0] + u[p, 0]
+    ccy = pc0[p, 1] + u[p, 1]
+    o = m + 3 * p
+    grad[o] += fx
+    grad[o + 1] += fy
+    grad[o + 2] += (qx - ccx) * fy - (qy - ccy) * fx
+    return ccx, ccy
+
+
+@nb.njit(cache=True, nogil=True)
 def _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, pairs, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0, fr_xw0,
                    dhat, kappa, eps_v, grad, hess, smat, va, vf, want_hess):
     """Barrier and lagged-friction forces of the window: per segment the sums of the force on the
@@ -417,19 +439,8 @@ def _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0,
         nx = (px - qx) / dist
         ny = (py - qy) / dist
         fmag = -kappa * b1  # > 0: pushes the robot away from the wall
-        _add_point_force(k, px, py, fmag * nx, fmag * ny, acc_f, acc_m, acc_fx)
-        if k == m - 1:
-            tip[0] -= s * fmag * (nx * ex + ny * ey)
-            tip[1] += fmag * nx
-            tip[2] += fmag * ny
         p = wpiece[w]
-        ccx = pc0[p, 0] + u[p, 0] if p >= 0 else 0.0
-        ccy = pc0[p, 1] + u[p, 1] if p >= 0 else 0.0
-        if p >= 0:  # the wall piece feels the opposite force at q
-            o = m + 3 * p
-            grad[o] += fmag * nx
-            grad[o + 1] += fmag * ny
-            grad[o + 2] += (qx - ccx) * fmag * ny - (qy - ccy) * fmag * nx
+        ccx, ccy = _apply_force(m, k, s, px, py, qx, qy, fmag * nx, fmag * ny, p, pc0, u, ex, ey, acc_f, acc_m, acc_fx, tip, grad)
         if want_hess:
             _rank1(hess, smat, m, k, px, py, nodes, nx, ny, p, ccx, ccy, qx, qy, kappa * b2)
             if wvert[w] and 0.0 < s < 1.0:
@@ -482,19 +493,8 @@ def _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0,
         ut = ((xr - fr_xr0[c, 0]) - (xw - fr_xw0[c, 0])) * tx + ((yr - fr_xr0[c, 1]) - (yw - fr_xw0[c, 1])) * ty
         _, f1y, df1 = _f0(abs(ut), eps_v)
         ff = -fr_mulam[c] * f1y * ut  # tangential force on the robot (along t)
-        _add_point_force(k, xr, yr, ff * tx, ff * ty, acc_f, acc_m, acc_fx)
-        if k == m - 1:
-            tip[0] -= s * ff * (tx * ex + ty * ey)
-            tip[1] += ff * tx
-            tip[2] += ff * ty
         p = wpiece[w]
-        ccx = pc0[p, 0] + u[p, 0] if p >= 0 else 0.0
-        ccy = pc0[p, 1] + u[p, 1] if p >= 0 else 0.0
-        if p >= 0:
-            o = m + 3 * p
-            grad[o] += ff * tx
-            grad[o + 1] += ff * ty
-            grad[o + 2] += (xw - ccx) * ff * ty - (yw - ccy) * ff * tx
+        ccx, ccy = _apply_force(m, k, s, xr, yr, xw, yw, ff * tx, ff * ty, p, pc0, u, ex, ey, acc_f, acc_m, acc_fx, tip, grad)
         if want_hess:
             _rank1(hess, smat, m, k, xr, yr, nodes, tx, ty, p, ccx, ccy, xw, yw, fr_mulam[c] * df1)
     return acc_f, acc_m, acc_fx, tip
