@@ -287,6 +287,19 @@ def _rows_to_pairs(rows):
 
 
 @nb.njit(cache=True, nogil=True)
+def _slip(c, nodes, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_xr0, fr_xw0, wpiece, pc0, u):
+    """Lagged friction entry ``c`` now: its segment and parameter, the robot point, the wall point and
+    the tangential slip ``u_T`` (m) since the configuration before the solve."""
+    k = fr_k[c]
+    s = fr_s[c]
+    xr = nodes[k, 0] * (1 - s) + nodes[k + 1, 0] * s
+    yr = nodes[k, 1] * (1 - s) + nodes[k + 1, 1] * s
+    xw, yw = _wall_point(fr_w[c], fr_wl[c, 0], fr_wl[c, 1], wpiece, pc0, u)
+    ut = ((xr - fr_xr0[c, 0]) - (xw - fr_xw0[c, 0])) * fr_t[c, 0] + ((yr - fr_xr0[c, 1]) - (yw - fr_xw0[c, 1])) * fr_t[c, 1]
+    return k, s, xr, yr, xw, yw, ut
+
+
+@nb.njit(cache=True, nogil=True)
 def energy(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
            wa, wb, wpiece, wvert, wrad, pc0, u, pairs, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0, fr_xw0,
            dhat, kappa, eps_v):
@@ -305,13 +318,7 @@ def energy(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, l
         e += kappa * b
     # lagged friction
     for c in range(fr_k.shape[0]):
-        k = fr_k[c]
-        s = fr_s[c]
-        xr = nodes[k, 0] * (1 - s) + nodes[k + 1, 0] * s
-        yr = nodes[k, 1] * (1 - s) + nodes[k + 1, 1] * s
-        w = fr_w[c]
-        xw, yw = _wall_point(w, fr_wl[c, 0], fr_wl[c, 1], wpiece, pc0, u)
-        ut = ((xr - fr_xr0[c, 0]) - (xw - fr_xw0[c, 0])) * fr_t[c, 0] + ((yr - fr_xr0[c, 1]) - (yw - fr_xw0[c, 1])) * fr_t[c, 1]
+        ut = _slip(c, nodes, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_xr0, fr_xw0, wpiece, pc0, u)[6]
         f0, _, _ = _f0(abs(ut), eps_v)
         e += fr_mulam[c] * f0
     # compliant wall pieces
@@ -482,15 +489,10 @@ def _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0,
                     hess[j, o + 2] += hj
                     hess[o + 2, j] += hj
     for c in range(fr_k.shape[0]):
-        k = fr_k[c]
-        s = fr_s[c]
-        xr = nodes[k, 0] * (1 - s) + nodes[k + 1, 0] * s
-        yr = nodes[k, 1] * (1 - s) + nodes[k + 1, 1] * s
+        k, s, xr, yr, xw, yw, ut = _slip(c, nodes, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_xr0, fr_xw0, wpiece, pc0, u)
         w = fr_w[c]
-        xw, yw = _wall_point(w, fr_wl[c, 0], fr_wl[c, 1], wpiece, pc0, u)
         tx = fr_t[c, 0]
         ty = fr_t[c, 1]
-        ut = ((xr - fr_xr0[c, 0]) - (xw - fr_xw0[c, 0])) * tx + ((yr - fr_xr0[c, 1]) - (yw - fr_xw0[c, 1])) * ty
         _, f1y, df1 = _f0(abs(ut), eps_v)
         ff = -fr_mulam[c] * f1y * ut  # tangential force on the robot (along t)
         p = wpiece[w]
