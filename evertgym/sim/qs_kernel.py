@@ -627,7 +627,8 @@ def _try_cholesky(a):
 def _cholesky_solve(hess, rhs, mu0=0.0):
     """Solve ``(H + mu I) x = rhs`` with the smallest shift ``mu`` (0, then growing tenfold from
     1e-8 of the largest diagonal term) that makes the matrix positive definite (a Levenberg
-    step where the collapse plateau under compression makes ``H`` indefinite); ``(x, ok)``."""
+    step where the collapse plateau under compression makes ``H`` indefinite); returns ``(x, mu)``,
+    ``mu < 0`` if no shift did."""
     n = hess.shape[0]
     diag_max = 0.0
     for i in range(n):
