@@ -210,20 +210,24 @@ def contacts(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0
     nodes, theta = chain_nodes(theta0, n0, phi, seg_len)
     m = phi.shape[0]
     nw = wa.shape[0]
+    # each feature's bounding circle (centre, radius grown by its shape's radius and the reach), once
+    circ = np.empty((nw, 3))
+    for w in range(nw):
+        cx, cy, dx, dy = wall_world(w, wa, wb, wpiece, pc0, u)
+        circ[w, 0] = 0.5 * (cx + dx)
+        circ[w, 1] = 0.5 * (cy + dy)
+        circ[w, 2] = 0.5 * math.sqrt((dx - cx) ** 2 + (dy - cy) ** 2) + wrad[w] + dhat + margin
     cand = np.empty((m * 8 + 16, 2), np.int64)  # the pairs whose bounding circles come within reach
     cnt = 0
     for k in range(m):
-        ax = nodes[k, 0]
-        ay = nodes[k, 1]
-        bx = nodes[k + 1, 0]
-        by = nodes[k + 1, 1]
-        mx = 0.5 * (ax + bx)
-        my = 0.5 * (ay + by)
-        half = 0.5 * seg_len[k]
+        mx = 0.5 * (nodes[k, 0] + nodes[k + 1, 0])
+        my = 0.5 * (nodes[k, 1] + nodes[k + 1, 1])
+        own = 0.5 * seg_len[k] + seg_rad[k]
         for w in range(nw):
-            cx, cy, dx, dy = wall_world(w, wa, wb, wpiece, pc0, u)
-            reach = half + 0.5 * math.sqrt((dx - cx) ** 2 + (dy - cy) ** 2) + seg_rad[k] + wrad[w] + dhat + margin
-            if (0.5 * (cx + dx) - mx) ** 2 + (0.5 * (cy + dy) - my) ** 2 > reach * reach:
+            reach = own + circ[w, 2]
+            ddx = circ[w, 0] - mx
+            ddy = circ[w, 1] - my
+            if ddx * ddx + ddy * ddy > reach * reach:
                 continue
             if cnt == cand.shape[0]:
                 bigger = np.empty((2 * cnt, 2), np.int64)
@@ -324,8 +328,11 @@ def energy(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, l
     # compliant wall pieces
     npc = u.shape[0]
     if npc > 0:
-        flat = u.ravel()
-        e += 0.5 * flat @ (kaa @ flat) + flat @ fh
+        for p in range(npc):  # kaa: each piece's own 3 x 3 stiffness (independent springs)
+            for i in range(3):
+                e += fh[3 * p + i] * u[p, i]
+                for j in range(3):
+                    e += 0.5 * u[p, i] * kaa[p, i, j] * u[p, j]
         for p in range(npc):
             r = math.sqrt(u[p, 0] ** 2 + u[p, 1] ** 2)
             if r > travel[p]:
@@ -592,12 +599,14 @@ def grad_hess(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi
                     hess[j, i] += val
     # compliant pieces: springs and the tether stop
     if npc > 0:
-        flat = u.ravel()
-        gw = kaa @ flat + fh
-        for i in range(3 * npc):
-            grad[m + i] += gw[i]
-        if want_hess:
-            hess[m:, m:] += kaa
+        for p in range(npc):
+            o = m + 3 * p
+            for i in range(3):
+                grad[o + i] += fh[3 * p + i]
+                for j in range(3):
+                    grad[o + i] += kaa[p, i, j] * u[p, j]
+                    if want_hess:
+                        hess[o + i, o + j] += kaa[p, i, j]
         for p in range(npc):
             r = math.sqrt(u[p, 0] ** 2 + u[p, 1] ** 2)
             if r > travel[p]:
@@ -658,6 +667,30 @@ def _cholesky_solve(hess, rhs, mu0=0.0):
 
 
 @nb.njit(cache=True, nogil=True)
+def _inv3_spd(d):
+    """Inverse of a symmetric 3 x 3 matrix and whether it is positive definite (leading minors)."""
+    m1 = d[0, 0]
+    m2 = d[0, 0] * d[1, 1] - d[0, 1] * d[1, 0]
+    c00 = d[1, 1] * d[2, 2] - d[1, 2] * d[2, 1]
+    c01 = d[1, 2] * d[2, 0] - d[1, 0] * d[2, 2]
+    c02 = d[1, 0] * d[2, 1] - d[1, 1] * d[2, 0]
+    det = d[0, 0] * c00 + d[0, 1] * c01 + d[0, 2] * c02
+    out = np.empty((3, 3))
+    if not (m1 > 0.0 and m2 > 0.0 and det > 0.0):
+        return out, False
+    out[0, 0] = c00 / det
+    out[1, 0] = c01 / det
+    out[2, 0] = c02 / det
+    out[0, 1] = (d[0, 2] * d[2, 1] - d[0, 1] * d[2, 2]) / det
+    out[1, 1] = (d[0, 0] * d[2, 2] - d[0, 2] * d[2, 0]) / det
+    out[2, 1] = (d[0, 1] * d[2, 0] - d[0, 0] * d[2, 1]) / det
+    out[0, 2] = (d[0, 1] * d[1, 2] - d[0, 2] * d[1, 1]) / det
+    out[1, 2] = (d[0, 2] * d[1, 0] - d[0, 0] * d[1, 2]) / det
+    out[2, 2] = m2 / det
+    return out, True
+
+
+@nb.njit(cache=True, nogil=True)
 def _schur_solve(hess, rhs, m, npc, mu0):
     """Solve ``(H + mu I) x = rhs`` where the wall pieces' block of ``H`` is block diagonal (each
     piece an independent spring): the pieces are eliminated (Schur complement on the joints), so
@@ -670,7 +703,16 @@ def _schur_solve(hess, rhs, m, npc, mu0):
     diag_max = 0.0
     for i in range(n):
         diag_max = max(diag_max, abs(hess[i, i]))
+    coupled = np.zeros(npc, np.bool_)  # pieces a contact couples to the joints
+    for p in range(npc):
+        o = m + 3 * p
+        for i in range(m):
+            if hess[i, o] != 0.0 or hess[i, o + 1] != 0.0 or hess[i, o + 2] != 0.0:
+                coupled[p] = True
+                break
     mu = mu0
+    d = np.empty((3, 3))
+    bd = np.empty((m, 3))
     for _ in range(40):
         ok = True
         schur = hess[:m, :m].copy()
@@ -680,19 +722,23 @@ def _schur_solve(hess, rhs, m, npc, mu0):
         dinv = np.empty((npc, 3, 3))
         for p in range(npc):
             o = m + 3 * p
-            d = hess[o:o + 3, o:o + 3].copy()
             for i in range(3):
+                for j in range(3):
+                    d[i, j] = hess[o + i, o + j]
                 d[i, i] += mu
-            low, good = _try_cholesky(d)
+            inv, good = _inv3_spd(d)
             if not good:
                 ok = False
                 break
-            dinv[p] = np.linalg.inv(d)
-            bp = hess[:m, o:o + 3]
-            if np.any(bp != 0.0):
-                bd = np.ascontiguousarray(bp) @ dinv[p]
-                schur -= bd @ np.ascontiguousarray(bp.T)
-                r -= bd @ np.ascontiguousarray(rhs[o:o + 3])
+            dinv[p] = inv
+            if coupled[p]:
+                for i in range(m):
+                    for j in range(3):
+                        bd[i, j] = hess[i, o] * inv[0, j] + hess[i, o + 1] * inv[1, j] + hess[i, o + 2] * inv[2, j]
+                for i in range(m):
+                    r[i] -= bd[i, 0] * rhs[o] + bd[i, 1] * rhs[o + 1] + bd[i, 2] * rhs[o + 2]
+                    for j in range(m):
+                        schur[i, j] -= bd[i, 0] * hess[j, o] + bd[i, 1] * hess[j, o + 1] + bd[i, 2] * hess[j, o + 2]
         if ok:
             xs, shift = _cholesky_solve(schur, r, 0.0)
             if shift == 0.0:
@@ -700,7 +746,13 @@ def _schur_solve(hess, rhs, m, npc, mu0):
                 x[:m] = xs
                 for p in range(npc):
                     o = m + 3 * p
-                    x[o:o + 3] = dinv[p] @ (rhs[o:o + 3] - np.ascontiguousarray(hess[:m, o:o + 3].T) @ xs)
+                    v = rhs[o:o + 3].copy()  # x_p = D_p^-1 (rhs_p - B_p^T x_joints)
+                    if coupled[p]:
+                        for i in range(3):
+                            for j in range(m):
+                                v[i] -= hess[j, o + i] * xs[j]
+                    for i in range(3):
+                        x[o + i] = dinv[p, i, 0] * v[0] + dinv[p, i, 1] * v[1] + dinv[p, i, 2] * v[2]
                 return x, mu
         mu = max(1e-8 * diag_max, 1e-12) if mu == 0.0 else mu * 10.0
     return np.zeros(n), -1.0
@@ -970,4 +1022,46 @@ def near_features(nodes, seg_rad, box_lo, box_hi, reach):
         for f in range(nf):
             if not out[f] and box_hi[f, 0] >= lx and box_lo[f, 0] <= hx and box_hi[f, 1] >= ly and box_lo[f, 1] <= hy:
                 out[f] = True
+    return out
+
+
+@nb.njit(cache=True, nogil=True)
+def overlaps(theta0, n0, phi, seg_len, seg_rad, box_lo, box_hi, wa, wb, wpiece, wvert, wrad, pc0, u):
+    """Whether the window ``phi`` overlaps a wall: a robot-wall pair (:func:`_pair`) with a gap at
+    or below zero, among the features whose boxes (``box_lo``, ``box_hi``) meet a segment's.  The
+    same test that makes :func:`solve` return :data:`INFEASIBLE_START`, without a solve's setup
+    (a growth increment that would overlap is refused before it is assembled)."""
+    nodes, _ = chain_nodes(theta0, n0, phi, seg_len)
+    for k in range(phi.shape[0] - 1, -1, -1):  # from the tip, where an overlap is likeliest
+        g = seg_rad[k]
+        lx = min(nodes[k, 0], nodes[k + 1, 0]) - g
+        hx = max(nodes[k, 0], nodes[k + 1, 0]) + g
+        ly = min(nodes[k, 1], nodes[k + 1, 1]) - g
+        hy = max(nodes[k, 1], nodes[k + 1, 1]) + g
+        for w in range(box_lo.shape[0]):
+            if box_hi[w, 0] < lx or box_lo[w, 0] > hx or box_hi[w, 1] < ly or box_lo[w, 1] > hy:
+                continue
+            gap = _pair_at(nodes, k, w, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u)[10]
+            if gap <= 0.0:
+                return True
+    return False
+
+
+@nb.njit(cache=True, nogil=True)
+def touching(nodes, seg_rad, box_lo, box_hi, wa, wb, wpiece, wvert, wrad, pc0, u, reach):
+    """Mask of the wall features within ``reach`` (m) of a segment of the chain ``nodes``: a
+    robot-wall pair (:func:`_pair`) with a gap below ``reach``."""
+    nf = box_lo.shape[0]
+    out = np.zeros(nf, np.bool_)
+    for k in range(seg_rad.shape[0]):
+        g = seg_rad[k] + reach
+        lx = min(nodes[k, 0], nodes[k + 1, 0]) - g
+        hx = max(nodes[k, 0], nodes[k + 1, 0]) + g
+        ly = min(nodes[k, 1], nodes[k + 1, 1]) - g
+        hy = max(nodes[k, 1], nodes[k + 1, 1]) + g
+        for w in range(nf):
+            if out[w] or box_hi[w, 0] < lx or box_lo[w, 0] > hx or box_hi[w, 1] < ly or box_lo[w, 1] > hy:
+                continue
+            if _pair_at(nodes, k, w, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u)[10] < reach:
+                out[w] = True
     return out

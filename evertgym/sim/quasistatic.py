@@ -206,6 +206,7 @@ class QuasiStaticSim(GrowingTube):
         n_p = len(self._piece_bodies)
         self._pc0 = np.array([tuple(b.position) for b in self._piece_bodies], float).reshape(-1, 2)
         self._u_all = np.zeros((n_p, 3))
+        self._u_shown = np.zeros((n_p, 3))  # the displacements the pymunk bodies show
         # each piece an independent spring that translates: the inverse of its own 2 x 2 translational
         # compliance (its point stiffness with its neighbours and its own rotation free to follow;
         # the coupling between pieces is dropped); its rotation is held (a stiff spring)
@@ -649,6 +650,18 @@ class QuasiStaticSim(GrowingTube):
         seg_len = self.seg_len[a:].copy()
         seg_rad = self.seg_rad[a:].copy()
         m = len(phi)
+        phi_ref = phi.copy()
+        if self._predict is not None:  # the last increment's change of the joints, scaled to this one
+            rate, dl = self._predict
+            k = min(len(rate), m)
+            phi[:k] += rate[-k:] * dl if k else 0.0
+        w_ = self._walls
+        if qk.overlaps(theta0, n0, phi, seg_len, seg_rad, *self._feature_boxes, w_.a, w_.b, w_.piece, w_.vertex, w_.radius, self._pc0,
+                       self._u_all):
+            if self._predict is not None:  # the prediction overlaps a wall: start from rest
+                self._predict = None
+                return self._solve_window(a, tol_m, tol_f)
+            return False
         s_nodes = np.append(self.nodes[a : a + m], self.length)
         k_j = np.ascontiguousarray(self._k_all[a : a + m])
         mw_j = np.ascontiguousarray(self._mw_all[a : a + m])
@@ -666,6 +679,10 @@ class QuasiStaticSim(GrowingTube):
             blo, bhi = self._feature_boxes
             close = qk.near_features(nodes[a:], seg_rad, blo[sel], bhi[sel], cfg.barrier_gap_m + _PIECE_MARGIN_M)
             pieces = np.unique(wpiece_g[(wpiece_g >= 0) & close])
+            if a > 0 and len(pieces):  # a piece the held body touches is held with it (else a solve could push it into the body)
+                held = qk.touching(nodes[: a + 1], self.seg_rad[:a], blo[sel], bhi[sel], walls.a[sel], walls.b[sel], wpiece_g,
+                                   walls.vertex[sel], walls.radius[sel], self._pc0, self._u_all, cfg.barrier_gap_m + _PIECE_MARGIN_M)
+                pieces = np.setdiff1d(pieces, wpiece_g[(wpiece_g >= 0) & held])
             moving = wpiece_g >= 0
             if np.any(moving):
                 q = self._u_all[wpiece_g[moving]]
@@ -684,15 +701,12 @@ class QuasiStaticSim(GrowingTube):
         pc0 = self._pc0[pieces] if len(pieces) else np.zeros((0, 2))
         u = self._u_all[pieces] if len(pieces) else np.zeros((0, 3))
         if len(pieces):
-            dof = (3 * pieces[:, None] + np.arange(3)[None, :]).ravel()
-            kaa = np.zeros((len(dof), len(dof)))
-            for i, p_ in enumerate(pieces):
-                kaa[3 * i:3 * i + 3, 3 * i:3 * i + 3] = self._k_piece[p_]
-            fh = np.zeros(len(dof))
+            kaa = self._k_piece[pieces]
+            fh = np.zeros(3 * len(pieces))
             travel = np.full(len(pieces), self._travel)
             k_travel = np.full(len(pieces), self._k_travel)
         else:
-            kaa, fh, travel, k_travel = np.zeros((0, 0)), np.zeros(0), np.zeros(0), np.zeros(0)
+            kaa, fh, travel, k_travel = np.zeros((0, 3, 3)), np.zeros(0), np.zeros(0), np.zeros(0)
         sel_pos = np.full(len(walls.a), -1, np.int64)
         sel_pos[sel] = np.arange(len(sel))
         robot_mu = np.full(m, cfg.wall_friction)
@@ -701,11 +715,6 @@ class QuasiStaticSim(GrowingTube):
         j_all = self._entry_segments(fric, a)
         in_window = j_all >= a
         mine = in_window & (sel_pos[fric["wall"]] >= 0)
-        phi_ref = phi.copy()
-        if self._predict is not None:  # the last increment's change of the joints, scaled to this one
-            rate, dl = self._predict
-            k = min(len(rate), m)
-            phi[:k] += rate[-k:] * dl if k else 0.0
         (status, iters, res_m, res_f, e_s, e_w, e_wl, e_t, e_ml, acc_f, acc_m, tip, rows) = qk.solve_increment(
             theta0, n0, phi, phi_ref, seg_len, seg_rad, s_nodes, k_j, mw_j, *_LAW[:3], _LAW[3], RESIDUAL_STIFFNESS_FRACTION,
             wa, wb, wpiece, walls.vertex[sel], walls.radius[sel], walls.friction[sel], robot_mu, pc0, u, kaa, fh,
@@ -726,14 +735,15 @@ class QuasiStaticSim(GrowingTube):
             self._event("solve_failed", status=int(status), residual=round(ratio, 6))
         # commit the window
         self.phi[a:] = phi
-        if len(pieces):
-            self._u_all[:] = 0.0  # a piece nothing pushes is at rest
-            self._u_all[pieces] = u
-        elif len(self._piece_bodies) and np.any(self._u_all):
-            self._u_all[:] = 0.0  # nothing pushes the wall: it is at rest
-        for body, pc, uu in zip(self._piece_bodies, self._pc0, self._u_all):
-            body.position = (pc[0] + uu[0], pc[1] + uu[1])
-            body.angle = float(uu[2])
+        # the solved pieces take their equilibrium (at rest if nothing pushes them); the others stay
+        # where the held body holds them (putting them back at rest would push them into it)
+        self._u_all[pieces] = u
+        if len(self._piece_bodies):  # the scene's pymunk pieces follow (those that moved)
+            for i in np.nonzero(np.any(self._u_all != self._u_shown, axis=1))[0]:
+                pc, uu = self._pc0[i], self._u_all[i]
+                self._piece_bodies[i].position = (pc[0] + uu[0], pc[1] + uu[1])
+                self._piece_bodies[i].angle = float(uu[2])
+            self._u_shown[:] = self._u_all
         keep = ~in_window
         self._fric = {"s": np.concatenate([fric["s"][keep], e_s]), "wall": np.concatenate([fric["wall"][keep], sel[e_w]]),
                       "wl": np.concatenate([fric["wl"][keep], e_wl]), "t": np.concatenate([fric["t"][keep], e_t]),
