@@ -76,8 +76,11 @@ class SimConfig:
         (the largest unbalanced moment and force over ``p pi r^3`` and ``p pi r^2``, ``p`` at
         least 1 kPa), ``barrier_gap_m`` (IPC's d_hat: the contact barrier acts below this gap),
         ``friction_slip_m`` (IPC's eps_v: tangential travel per increment at which a contact
-        slides), ``friction_lag_iterations`` (re-solves with the normal forces updated) and
-        ``max_newton_iterations``.  A field that means nothing to the chosen engine is rejected.
+        slides), ``friction_lag_iterations`` (re-solves with the normal forces updated),
+        ``max_newton_iterations`` and ``pressure_increment_fraction`` (the pressure change, as a
+        fraction of the last solve's pressure and at least of 1 kPa, after which the body is
+        re-solved while it touches a wall or is growing).  A field that means nothing to the chosen
+        engine is rejected.
     """
 
     segment_length_m: float = 0.0075
@@ -117,6 +120,7 @@ class SimConfig:
     friction_slip_m: float = 1e-5
     friction_lag_iterations: int = 1
     max_newton_iterations: int = 60
+    pressure_increment_fraction: float = 0.05
 
     def __post_init__(self) -> None:
         _check("segment_length_m", self.segment_length_m, 0.0005, 0.05, lo_open=False)
@@ -157,6 +161,7 @@ class SimConfig:
         _check("friction_slip_m", self.friction_slip_m, 1e-9, 1e-3)
         _check("friction_lag_iterations", self.friction_lag_iterations, 0, 20)
         _check("max_newton_iterations", self.max_newton_iterations, 1, 10000)
+        _check("pressure_increment_fraction", self.pressure_increment_fraction, 1e-6, 0.5)
         other = "dynamic" if self.engine == "quasistatic" else "quasistatic"
         foreign = DYNAMIC_ONLY if self.engine == "quasistatic" else QUASISTATIC_ONLY
         for name in foreign:
@@ -184,5 +189,5 @@ DYNAMIC_ONLY = ("damping", "inertia_factor", "mass_ratio", "iterations", "law_in
                 "relax_force_n", "max_relax_steps", "dormant_walls", "wall_wake_margin_m", "tail_drag_fraction")
 #: Settings of the quasi-static engine.
 QUASISTATIC_ONLY = ("growth_increment_m", "solver_tolerance", "barrier_gap_m", "friction_slip_m", "friction_lag_iterations",
-                    "max_newton_iterations")
+                    "max_newton_iterations", "pressure_increment_fraction")
 _DEFAULTS = {f.name: f.default for f in fields(SimConfig)}

@@ -704,21 +704,30 @@ def _schur_solve(hess, rhs, m, npc, mu0):
     for i in range(n):
         diag_max = max(diag_max, abs(hess[i, i]))
     coupled = np.zeros(npc, np.bool_)  # pieces a contact couples to the joints
+    nc = 0
     for p in range(npc):
         o = m + 3 * p
         for i in range(m):
             if hess[i, o] != 0.0 or hess[i, o + 1] != 0.0 or hess[i, o + 2] != 0.0:
                 coupled[p] = True
+                nc += 1
                 break
+    cols = np.empty(nc, np.int64)  # the coupled pieces, and B = H[joints, their dofs] (m x 3 nc)
+    b = np.empty((m, 3 * nc))
+    c = 0
+    for p in range(npc):
+        if coupled[p]:
+            cols[c] = p
+            for i in range(m):
+                for j in range(3):
+                    b[i, 3 * c + j] = hess[i, m + 3 * p + j]
+            c += 1
     mu = mu0
     d = np.empty((3, 3))
-    bd = np.empty((m, 3))
+    bd = np.empty((m, 3 * nc))
+    rc = np.empty(3 * nc)
     for _ in range(40):
         ok = True
-        schur = hess[:m, :m].copy()
-        r = rhs[:m].copy()
-        for i in range(m):
-            schur[i, i] += mu
         dinv = np.empty((npc, 3, 3))
         for p in range(npc):
             o = m + 3 * p
@@ -731,26 +740,31 @@ def _schur_solve(hess, rhs, m, npc, mu0):
                 ok = False
                 break
             dinv[p] = inv
-            if coupled[p]:
-                for i in range(m):
-                    for j in range(3):
-                        bd[i, j] = hess[i, o] * inv[0, j] + hess[i, o + 1] * inv[1, j] + hess[i, o + 2] * inv[2, j]
-                for i in range(m):
-                    r[i] -= bd[i, 0] * rhs[o] + bd[i, 1] * rhs[o + 1] + bd[i, 2] * rhs[o + 2]
-                    for j in range(m):
-                        schur[i, j] -= bd[i, 0] * hess[j, o] + bd[i, 1] * hess[j, o + 1] + bd[i, 2] * hess[j, o + 2]
         if ok:
+            # Schur complement S = H_jj + mu I - B D^-1 B^T, r = rhs_j - B D^-1 rhs_p
+            for c in range(nc):
+                p = cols[c]
+                for j in range(3):
+                    rc[3 * c + j] = rhs[m + 3 * p + j]
+                    for i in range(m):
+                        bd[i, 3 * c + j] = b[i, 3 * c] * dinv[p, 0, j] + b[i, 3 * c + 1] * dinv[p, 1, j] + b[i, 3 * c + 2] * dinv[p, 2, j]
+            schur = hess[:m, :m] - bd @ np.ascontiguousarray(b.T) if nc else hess[:m, :m].copy()
+            r = rhs[:m] - bd @ rc if nc else rhs[:m].copy()
+            for i in range(m):
+                schur[i, i] += mu
             xs, shift = _cholesky_solve(schur, r, 0.0)
             if shift == 0.0:
                 x = np.empty(n)
                 x[:m] = xs
-                for p in range(npc):
+                btx = np.ascontiguousarray(b.T) @ xs if nc else np.zeros(0)
+                c = 0
+                for p in range(npc):  # x_p = D_p^-1 (rhs_p - B_p^T x_joints)
                     o = m + 3 * p
-                    v = rhs[o:o + 3].copy()  # x_p = D_p^-1 (rhs_p - B_p^T x_joints)
+                    v = rhs[o:o + 3].copy()
                     if coupled[p]:
                         for i in range(3):
-                            for j in range(m):
-                                v[i] -= hess[j, o + i] * xs[j]
+                            v[i] -= btx[3 * c + i]
+                        c += 1
                     for i in range(3):
                         x[o + i] = dinv[p, i, 0] * v[0] + dinv[p, i, 1] * v[1] + dinv[p, i, 2] * v[2]
                 return x, mu

@@ -8,7 +8,7 @@ inertia or damping to tune (``shared/notes/bend-physics.md``, sections 8-9; issu
   at material coordinate ``j ds``; the tip segment lengthens from ``ds`` to ``2 ds``, then
   splits), described by its joint rotations from the base clamp.  Growth is kinematic: it
   lengthens the tip segment along its heading.
-* **Equilibrium.** After every growth increment and every pressure change the joints within
+* **Equilibrium.** After every growth increment and every pressure increment (``pressure_increment_fraction``) the joints within
   ``active_length_m`` of the tip (and any held joint that is out of balance, see below), with
   the compliant wall pieces near them, are put in equilibrium by Newton's method on the
   incremental potential of :mod:`evertgym.sim.qs_kernel`: the calibrated joint law (the
@@ -71,8 +71,6 @@ _MAX_MOVE_M = 0.002
 _BISECTIONS = 10
 #: Largest change of the tip's reaction against growth over one increment, as a fraction of p pi r^2.
 _FORCE_STEP_FRACTION = 0.05
-#: A pressure change of this fraction (of at least 1 kPa) since the last solve triggers a new one.
-_PRESSURE_RESOLVE_FRACTION = 0.01
 
 
 def _law_table(n: int = 6000, x_max: float = 1e4) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
@@ -257,9 +255,7 @@ class QuasiStaticSim(GrowingTube):
         self._contact_segs: set[int] = set()
         self.active_start = 0
         self._tip_clearance = math.inf
-        self._predict: tuple[np.ndarray, float] | None = None
         self._rejoin: tuple[int, int] | None = None  # (joint, solves since) of the last widening
-        self._rate: np.ndarray | None = None
         # barrier stiffness: 0.1 x the largest drive (8 kPa pi r^2) per barrier gap (N/m)
         self._kappa = 0.1 * 8000.0 * math.pi * design.radius_m**2 / cfg.barrier_gap_m
         self._apply_pressure(0.0)
@@ -371,7 +367,7 @@ class QuasiStaticSim(GrowingTube):
     def step(self, n_steps: int = 1) -> None:
         """Advance the clock by ``n_steps`` steps of ``cfg.dt_s``: the regulator and the growth law
         advance every step; the body is re-solved whenever the tip has grown by the increment or
-        the pressure has moved by 1% since the last solve."""
+        the pressure has moved by ``cfg.pressure_increment_fraction`` since the last solve."""
         cfg = self.cfg
         dt = cfg.dt_s
         p_sum, f_max = 0.0, 0.0
@@ -383,7 +379,7 @@ class QuasiStaticSim(GrowingTube):
             if self.length < self.design.length_m:
                 v = self.growth.speed(p, self._required(self.tip_force))
             self._pending = min(self._pending + v * dt, self.design.length_m - self.length)
-            moved = abs(p - self._p_solved) > _PRESSURE_RESOLVE_FRACTION * max(self._p_solved, _P_SCALE_FLOOR)
+            moved = abs(p - self._p_solved) > cfg.pressure_increment_fraction * max(self._p_solved, _P_SCALE_FLOOR)
             if self._pending >= self._increment() or (moved and (self._contact_segs or self._pending > 0)) or (
                     self._pending > 0 and self.length + self._pending >= self.design.length_m - 1e-12):
                 self._advance(p)
@@ -445,18 +441,12 @@ class QuasiStaticSim(GrowingTube):
             dl = min(dl, remaining)
             start = self._snapshot()
             f0 = self.tip_force
-            phi_before = self.phi.copy()
-            self._predict = (self._rate, dl) if self._rate is not None else None
             ok = self._grow(dl) and self._solve()
-            self._predict = None
             if dl > dl_min and (not ok or abs(self.tip_force - f0) > f_step):  # a wall ahead: smaller steps
                 self._restore(start)
                 dl = max(0.5 * dl, dl_min)
                 continue
             if ok and self._required(self.tip_force) <= p * (1 + 1e-9):
-                # the joints' change per metre of growth: the next increment's predicted start
-                now = self.phi
-                self._rate = (now[: len(phi_before)] - phi_before) / dl if len(now) == len(phi_before) else None
                 remaining -= dl
                 dl = min(2.0 * dl, dl_max)
                 self._publish()
@@ -481,9 +471,7 @@ class QuasiStaticSim(GrowingTube):
             else:
                 mid = 0.5 * (lo + hi)
             self._restore(start)
-            self._predict = (self._rate, mid) if self._rate is not None else None
             ok = self._grow(mid) and self._solve()
-            self._predict = None
             g = self._required(self.tip_force) - p if ok else math.inf
             if g <= 0:
                 lo, g_lo, best = mid, g, self._snapshot()
@@ -651,16 +639,9 @@ class QuasiStaticSim(GrowingTube):
         seg_rad = self.seg_rad[a:].copy()
         m = len(phi)
         phi_ref = phi.copy()
-        if self._predict is not None:  # the last increment's change of the joints, scaled to this one
-            rate, dl = self._predict
-            k = min(len(rate), m)
-            phi[:k] += rate[-k:] * dl if k else 0.0
         w_ = self._walls
         if qk.overlaps(theta0, n0, phi, seg_len, seg_rad, *self._feature_boxes, w_.a, w_.b, w_.piece, w_.vertex, w_.radius, self._pc0,
                        self._u_all):
-            if self._predict is not None:  # the prediction overlaps a wall: start from rest
-                self._predict = None
-                return self._solve_window(a, tol_m, tol_f)
             return False
         s_nodes = np.append(self.nodes[a : a + m], self.length)
         k_j = np.ascontiguousarray(self._k_all[a : a + m])
@@ -722,9 +703,6 @@ class QuasiStaticSim(GrowingTube):
             np.ascontiguousarray(fric["t"][mine]), fric["ml"][mine], cfg.barrier_gap_m, self._kappa, cfg.friction_slip_m, tol_m,
             tol_f, cfg.max_newton_iterations, _MAX_MOVE_M, cfg.friction_lag_iterations)
         self._stats.newton_iterations += iters
-        if status == qk.INFEASIBLE_START and self._predict is not None:  # the prediction overlaps a wall: start from rest
-            self._predict = None
-            return self._solve_window(a, tol_m, tol_f)
         if status == qk.INFEASIBLE_START:
             return False
         self._stats.solves += 1
