@@ -34,6 +34,8 @@ def test_the_engine_switch_builds_the_quasistatic_engine():
     (dict(engine="quasistatic", growth_increment_m=0.02), "growth_increment_m = 0.02 is out of range"),
     (dict(engine="quasistatic", solver_tolerance=0.0), "solver_tolerance = 0.0 is out of range"),
     (dict(engine="quasistatic", section_law=True), "section_law = True is out of range for engine 'quasistatic'"),
+    (dict(engine="quasistatic", pressure_increment_fraction=0.0), "pressure_increment_fraction = 0.0 is out of range"),
+    (dict(engine="dynamic", pressure_increment_fraction=0.01), "pressure_increment_fraction = 0.01 means nothing to engine 'dynamic'"),
 ])
 def test_settings_foreign_to_the_engine_are_refused_in_one_line(kwargs, message):
     with pytest.raises(ValueError, match=re.escape(message)) as err:
@@ -87,6 +89,32 @@ def test_ubend_trial_converges_and_does_not_move_with_the_increment():
         assert sim.max_contact_force <= 1.5 * F_REF_3KPA
         tips.append(sim.tip_position)
     assert np.linalg.norm(tips[0] - tips[1]) < 1e-3
+
+
+def test_the_colon_robot_grows_as_far_as_its_growth_law_drives_it():
+    """Colon-v0 under random commands: the length the body grows is the length the eversion rate
+    law asks for (the integral of ``growth_speed``), within the cut-backs at stalls.  Regression: a
+    compliant wall piece that a solve pushed into the held body made every later increment overlap,
+    and the robot stopped at 345 mm while its law asked for 599 mm."""
+    import gymnasium as gym
+
+    env = gym.make("evertgym/Colon-v0", sim_config={"engine": "quasistatic"})
+    env.reset(seed=0)
+    sim = env.unwrapped.sim
+    asked, start, step = [0.0], sim.length, sim.step
+
+    def counted(n: int = 1) -> None:
+        for _ in range(n):
+            step(1)
+            asked[0] += sim.growth_speed * sim.cfg.dt_s
+
+    sim.step = counted
+    rng = np.random.default_rng(0)
+    for _ in range(50):
+        env.step(rng.uniform(-1, 1, 1).astype(np.float32))
+    assert asked[0] > 0.45  # it was driven through the first bends
+    assert sim.length - start == pytest.approx(asked[0], abs=0.005)
+    assert sim.solve_stats["solve_failures"] <= 0.001 * sim.solve_stats["solves"]
 
 
 def test_solve_counts_reach_the_env_info_and_the_trial_record():

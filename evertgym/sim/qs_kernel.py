@@ -1079,3 +1079,35 @@ def touching(nodes, seg_rad, box_lo, box_hi, wa, wb, wpiece, wvert, wrad, pc0, u
             if _pair_at(nodes, k, w, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u)[10] < reach:
                 out[w] = True
     return out
+
+
+@nb.njit(cache=True, nogil=True)
+def select_features(nodes, seg_rad, box_lo, box_hi, reach):
+    """Indices of the wall features (boxes ``box_lo``, ``box_hi``) within ``reach`` (m) of a
+    segment's box (its nodes grown by its radius): the window's box first, then each segment's."""
+    m = seg_rad.shape[0]
+    g = reach
+    for k in range(m):
+        g = max(g, seg_rad[k] + reach)
+    wlx = nodes[0, 0]
+    whx = nodes[0, 0]
+    wly = nodes[0, 1]
+    why = nodes[0, 1]
+    for k in range(m + 1):
+        wlx = min(wlx, nodes[k, 0])
+        whx = max(whx, nodes[k, 0])
+        wly = min(wly, nodes[k, 1])
+        why = max(why, nodes[k, 1])
+    out = np.empty(box_lo.shape[0], np.int64)
+    cnt = 0
+    for f in range(box_lo.shape[0]):
+        if box_hi[f, 0] < wlx - g or box_lo[f, 0] > whx + g or box_hi[f, 1] < wly - g or box_lo[f, 1] > why + g:
+            continue
+        for k in range(m):
+            r = seg_rad[k] + reach
+            if (box_hi[f, 0] >= min(nodes[k, 0], nodes[k + 1, 0]) - r and box_lo[f, 0] <= max(nodes[k, 0], nodes[k + 1, 0]) + r
+                    and box_hi[f, 1] >= min(nodes[k, 1], nodes[k + 1, 1]) - r and box_lo[f, 1] <= max(nodes[k, 1], nodes[k + 1, 1]) + r):
+                out[cnt] = f
+                cnt += 1
+                break
+    return out[:cnt]

@@ -647,10 +647,7 @@ class QuasiStaticSim(GrowingTube):
         k_j = np.ascontiguousarray(self._k_all[a : a + m])
         mw_j = np.ascontiguousarray(self._mw_all[a : a + m])
         walls = self._walls
-        sel = self._query_walls(nodes[a:], float(np.max(seg_rad)) + cfg.barrier_gap_m + _QUERY_MARGIN_M)
-        if len(sel):  # of those, the ones near a segment (a bent window's box holds many more)
-            blo, bhi = self._feature_boxes
-            sel = sel[qk.near_features(nodes[a:], seg_rad, blo[sel], bhi[sel], cfg.barrier_gap_m + _QUERY_MARGIN_M)]
+        sel = qk.select_features(nodes[a:], seg_rad, *self._feature_boxes, cfg.barrier_gap_m + _QUERY_MARGIN_M)
         wpiece_g = walls.piece[sel]
         # the wall pieces the robot is about to touch are unknowns (independent springs); the other
         # pieces' features are walls held where they are for this solve
