@@ -367,7 +367,9 @@ class QuasiStaticSim(GrowingTube):
     def step(self, n_steps: int = 1) -> None:
         """Advance the clock by ``n_steps`` steps of ``cfg.dt_s``: the regulator and the growth law
         advance every step; the body is re-solved whenever the tip has grown by the increment or
-        the pressure has moved by ``cfg.pressure_increment_fraction`` since the last solve."""
+        the pressure has moved by ``cfg.pressure_increment_fraction`` since the last solve (of that
+        pressure, at least 1 kPa), and once more when the pressure has settled within a tenth of that
+        of its command: a held pressure is solved to within a tenth of the increment."""
         cfg = self.cfg
         dt = cfg.dt_s
         p_sum, f_max = 0.0, 0.0
@@ -379,7 +381,11 @@ class QuasiStaticSim(GrowingTube):
             if self.length < self.design.length_m:
                 v = self.growth.speed(p, self._required(self.tip_force))
             self._pending = min(self._pending + v * dt, self.design.length_m - self.length)
-            moved = abs(p - self._p_solved) > cfg.pressure_increment_fraction * max(self._p_solved, _P_SCALE_FLOOR)
+            # re-solve after a pressure increment; and once the regulator has (nearly) reached its
+            # command, at the pressure it settles at (a plateau is solved within a tenth of the increment)
+            step_pa = cfg.pressure_increment_fraction * max(self._p_solved, _P_SCALE_FLOOR)
+            off = abs(p - self._p_solved)
+            moved = off > step_pa or (off > 0.1 * step_pa and abs(self.regulator.command - p) <= 0.1 * step_pa)
             if self._pending >= self._increment() or (moved and (self._contact_segs or self._pending > 0)) or (
                     self._pending > 0 and self.length + self._pending >= self.design.length_m - 1e-12):
                 self._advance(p)
