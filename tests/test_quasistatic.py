@@ -172,3 +172,19 @@ def test_reproduce_ubend_runs_one_cell_on_the_quasistatic_engine(capsys, tmp_pat
     out = json.loads(capsys.readouterr().out)
     assert [(r["reduction"], r["radius_mm"], r["trials"]) for r in out["rows"]] == [(0.0, 40.0, 1)]
     assert out["solves"]["solves"] > 0 and out["solves"]["solve_failures"] == 0
+
+
+@pytest.mark.parametrize("family", ["straight", "ubend", "bend", "sbend", "tortuous", "colon"])
+def test_the_wall_never_pushes_harder_than_the_tube_can_at_8kpa(family):
+    """The tip-force cap in every scene family: each family's default scene, a 0.8 m robot driven at
+    the 8 kPa limit until it is fully everted; the tip's wall force stays within 1.5 p pi r^2, the
+    body finite, the solves converged (at most 1% above the tolerance, each one reported)."""
+    design = TubeDesign(diameter_m=0.02 if family == "colon" else 0.04, length_m=0.8)
+    sim = EversionSim(design, scene=make_scene(SceneSpec(family, {}, 0)), config=QS)
+    sim.set_pressure_command(8000.0)
+    sim.run(8.0)
+    assert np.all(np.isfinite(sim.centreline())) and sim.length > 0.4
+    cap = 1.5 * 8000.0 * math.pi * design.radius_m**2
+    assert (family == "straight" or sim.max_contact_force > 0.1 * cap) and sim.max_contact_force <= cap
+    stats = sim.solve_stats
+    assert stats["solves"] > 0 and stats["solve_failures"] <= 0.01 * stats["solves"]
