@@ -222,6 +222,7 @@ class QuasiStaticSim(GrowingTube):
         # the body's state: per segment its joint rotation (joint j against segment j - 1; joint 0
         # against the clamp), length and collision radius
         self.phi = np.zeros(0)  # rad
+        self._turn: float | None = None  # sum |phi| (rad), cached until the joints change
         self.seg_len = np.zeros(0)  # m
         self.seg_rad = np.zeros(0)  # m
         self.length = 0.0
@@ -267,6 +268,7 @@ class QuasiStaticSim(GrowingTube):
         n = max(1, int(math.floor(length / self.ds + 1e-9)))
         lens = [self.ds if j < n - 1 else length - (n - 1) * self.ds for j in range(n)]
         self.phi = np.zeros(n)
+        self._turn = None
         self.seg_len = np.array(lens)
         self.seg_rad = np.array([self._radius_between(self.nodes[j], self.nodes[j] + lens[j]) for j in range(n)])
         self.length = length
@@ -353,7 +355,10 @@ class QuasiStaticSim(GrowingTube):
 
     # ---- pressure, growth, clock -----------------------------------------------------
     def _turning(self) -> float:
-        return float(np.sum(np.abs(self.phi)))
+        """Total turning of the body, ``sum |phi|`` (rad): the bend loss's angle."""
+        if self._turn is None:
+            self._turn = float(np.sum(np.abs(self.phi)))
+        return self._turn
 
     def _required(self, tip_force: float) -> float:
         p_y, area = self._tip_threshold()
@@ -418,6 +423,7 @@ class QuasiStaticSim(GrowingTube):
         (phi, seg_len, seg_rad, self.length, u, fric, seg_force, seg_moment, contact_segs, self.tip_force,
          tip_contact, self._tip_clearance, self.active_start) = snap
         self.phi, self.seg_len, self.seg_rad, self._fric = phi.copy(), seg_len.copy(), seg_rad.copy(), dict(fric)
+        self._turn = None
         self._u_all = u.copy()
         self._seg_force, self._seg_moment, self._contact_segs = seg_force.copy(), seg_moment.copy(), set(contact_segs)
         self.tip_contact = tip_contact.copy()
@@ -511,6 +517,7 @@ class QuasiStaticSim(GrowingTube):
             self.seg_len[j] = ds
             self.seg_rad[j] = min(self._radius_between(self.nodes[j], self.nodes[j] + ds), self.seg_rad[j])
             self.phi = np.append(self.phi, 0.0)
+            self._turn = None
             self.seg_len = np.append(self.seg_len, seg - ds)
             self.seg_rad = np.append(self.seg_rad, self.seg_rad[j])
             self._seg_force = np.vstack([self._seg_force, np.zeros((1, 2))])
@@ -716,6 +723,7 @@ class QuasiStaticSim(GrowingTube):
             self._event("solve_failed", status=int(status), residual=round(ratio, 6))
         # commit the window
         self.phi[a:] = phi
+        self._turn = None
         # the solved pieces take their equilibrium (at rest if nothing pushes them); the others stay
         # where the held body holds them (putting them back at rest would push them into it)
         self._u_all[pieces] = u
