@@ -22,7 +22,8 @@ inertia or damping to tune (``shared/notes/bend-physics.md``, sections 8-9; issu
   wall-piece force below ``solver_tolerance p pi r^2`` (with ``p`` at least 1 kPa).
 * **Held joints.** Joints behind the window keep their angles; after every solve the moment
   each one must carry (from every contact force distal to it) is checked against its own
-  moment, and a joint out of balance by more than the tolerance rejoins the solve.
+  moment, and a joint out of balance by more than the tolerance rejoins the solve.  A compliant
+  wall piece that the held body touches is held with it.
 * **Time** comes from the growth law alone (:mod:`evertgym.sim.growth`): the clock advances
   the regulator and the eversion rate ``v = K_g (p - p_req)`` by ``dt_s``, where ``p_req``
   holds the wall's reaction against growth ``F_tip = -dE/dL`` of the last equilibrium; the
@@ -31,10 +32,10 @@ inertia or damping to tune (``shared/notes/bend-physics.md``, sections 8-9; issu
   which the reaction balances the drive: a stall's position does not depend on the increment.
 
 Contact geometry comes from the scene's pymunk shapes: the walls are read once from them
-(static segments; the compliant wall's pieces with their outlines) and a bounding-box query
-of the space picks the walls near the window at every solve.  Every solve is counted; one that
-ends above the tolerance is counted in :attr:`QuasiStaticSim.solve_failures` and reported, never
-hidden.
+(static segments; the compliant wall's pieces with their outlines) and a bounding-box test
+picks the walls near the window at every solve.  Every solve is counted; one that ends above the
+tolerance is counted in :attr:`QuasiStaticSim.solve_stats` (``solve_failures``) and reported,
+never hidden.
 """
 
 from __future__ import annotations
