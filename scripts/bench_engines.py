@@ -9,6 +9,7 @@ included).
 
     python scripts/bench_engines.py                      # UBend-v0 and Colon-v0, 200 steps, 3 repeats
     python scripts/bench_engines.py --env evertgym/UBend-v0 --steps 100 --repeats 1 --json
+    python scripts/bench_engines.py --profile                 # where a quasi-static step's time goes
 """
 
 from __future__ import annotations
@@ -52,16 +53,83 @@ def run(env_id: str, engine: str, steps: int, seed: int) -> dict:
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
+#: Where a quasi-static env step's time goes: (label, predicate on a profiled function's
+#: (file, name)); a function's own time counts in the first group it matches, the rest is "other".
+_GROUPS = (
+    ("compiled Newton solve (qs_kernel.solve_increment)", lambda f, n: f.endswith("qs_kernel.py") and n == "solve_increment"),
+    ("wall selection and overlap checks (compiled)", lambda f, n: f.endswith("qs_kernel.py")),
+    ("window setup and commit (QuasiStaticSim._solve_window)", lambda f, n: f.endswith("quasistatic.py") and n == "_solve_window"),
+    ("growth increments, cut-backs, events (quasistatic.py)", lambda f, n: f.endswith("quasistatic.py")),
+    ("clock: regulator, growth law, radii (tube.py, growth.py, section.py)",
+     lambda f, n: f.endswith(("tube.py", "growth.py", "section.py", "eversion.py"))),
+    ("env: observation, reward (evertgym/env, scenes)", lambda f, n: "/evertgym/env/" in f or "/evertgym/scenes/" in f),
+    ("numpy", lambda f, n: "numpy" in f or n.startswith("<method") or n.startswith("<built-in")),
+)
+
+
+def profile(env_id: str, steps: int, seed: int = 0) -> dict:
+    """cProfile of ``steps`` random-action steps of ``env_id`` on the quasi-static engine, in this
+    process (after a first step that compiles or loads the kernel): each group's share of the
+    steps' time (its functions' own time), and the solves and Newton iterations."""
+    import cProfile
+    import pstats
+
+    import gymnasium as gym
+    import numpy as np
+
+    import evertgym  # noqa: F401  (registers the envs)
+
+    env = gym.make(env_id, sim_config={"engine": "quasistatic"})
+    env.reset(seed=seed)
+    env.step(np.zeros(1, np.float32))
+    env.reset(seed=seed)
+    rng = np.random.default_rng(seed)
+    actions = [rng.uniform(-1, 1, 1).astype(np.float32) for _ in range(steps)]
+    prof = cProfile.Profile()
+    solves = iters = 0
+    prof.enable()
+    for a in actions:
+        _, _, term, trunc, info = env.step(a)
+        if term or trunc:
+            solves += info.get("solves", 0)
+            iters += info.get("newton_iterations", 0)
+            env.reset()
+    prof.disable()
+    solves += info.get("solves", 0)
+    iters += info.get("newton_iterations", 0)
+    stats = pstats.Stats(prof).stats  # {(file, line, name): (cc, nc, tottime, cumtime, callers)}
+    total = sum(v[2] for v in stats.values())
+    shares: dict[str, float] = {label: 0.0 for label, _ in _GROUPS}
+    shares["other"] = 0.0
+    for (file, _, name), v in stats.items():
+        label = next((lab for lab, match in _GROUPS if match(file, name)), "other")
+        shares[label] += v[2]
+    return {"env_id": env_id, "steps": steps, "profiled_s": total, "solves_per_step": solves / steps,
+            "iterations_per_solve": iters / solves if solves else 0.0, "shares": {k: v / total for k, v in shares.items()}}
+
+
 def main(argv: list[str] | None = None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--env", action="append", help="env id (repeatable); default UBend-v0 and Colon-v0")
     ap.add_argument("--steps", type=int, default=200)
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--json", action="store_true")
+    ap.add_argument("--profile", action="store_true", help="where a quasi-static step's time goes (cProfile, in this process)")
     args = ap.parse_args(argv)
     if not (1 <= args.steps <= 100000 and 1 <= args.repeats <= 20):
         ap.error("--steps must be in [1, 100000] and --repeats in [1, 20]")
     ids = args.env or ["evertgym/UBend-v0", "evertgym/Colon-v0"]
+    if args.profile:
+        prof = {"profiles": [profile(env_id, args.steps) for env_id in ids]}
+        if args.json:
+            print(json.dumps(prof, indent=1))
+            return prof
+        for p in prof["profiles"]:
+            print(f"{p['env_id']}: {p['steps']} random-action steps on the quasi-static engine, {p['profiled_s']:.2f} s under cProfile, "
+                  f"{p['solves_per_step']:.1f} solves per step, {p['iterations_per_solve']:.1f} Newton iterations per solve")
+            for label, share in sorted(p["shares"].items(), key=lambda kv: -kv[1]):
+                print(f"  {100 * share:5.1f}%  {label}")
+        return prof
     rows = []
     for env_id in ids:
         best: dict[str, dict] = {}
