@@ -1021,22 +1021,10 @@ def solve_increment(theta0, n0, phi, phi_ref, seg_len, seg_rad, s_nodes, k_j, mw
 
 
 @nb.njit(cache=True, nogil=True)
-def near_features(nodes, seg_rad, box_lo, box_hi, reach):
-    """Mask of the wall features (boxes ``box_lo``, ``box_hi``) within ``reach`` (m) of a segment's
-    box (its nodes grown by its radius): the walls a solve of these segments can touch."""
-    nf = box_lo.shape[0]
-    m = seg_rad.shape[0]
-    out = np.zeros(nf, np.bool_)
-    for k in range(m):
-        g = seg_rad[k] + reach
-        lx = min(nodes[k, 0], nodes[k + 1, 0]) - g
-        hx = max(nodes[k, 0], nodes[k + 1, 0]) + g
-        ly = min(nodes[k, 1], nodes[k + 1, 1]) - g
-        hy = max(nodes[k, 1], nodes[k + 1, 1]) + g
-        for f in range(nf):
-            if not out[f] and box_hi[f, 0] >= lx and box_lo[f, 0] <= hx and box_hi[f, 1] >= ly and box_lo[f, 1] <= hy:
-                out[f] = True
-    return out
+def _segment_box(nodes, k, grow):
+    """Bounding box ``(lx, hx, ly, hy)`` of segment ``k`` of ``nodes``, grown by ``grow`` (m)."""
+    return (min(nodes[k, 0], nodes[k + 1, 0]) - grow, max(nodes[k, 0], nodes[k + 1, 0]) + grow,
+            min(nodes[k, 1], nodes[k + 1, 1]) - grow, max(nodes[k, 1], nodes[k + 1, 1]) + grow)
 
 
 @nb.njit(cache=True, nogil=True)
@@ -1047,11 +1035,7 @@ def overlaps(theta0, n0, phi, seg_len, seg_rad, box_lo, box_hi, wa, wb, wpiece, 
     (a growth increment that would overlap is refused before it is assembled)."""
     nodes, _ = chain_nodes(theta0, n0, phi, seg_len)
     for k in range(phi.shape[0] - 1, -1, -1):  # from the tip, where an overlap is likeliest
-        g = seg_rad[k]
-        lx = min(nodes[k, 0], nodes[k + 1, 0]) - g
-        hx = max(nodes[k, 0], nodes[k + 1, 0]) + g
-        ly = min(nodes[k, 1], nodes[k + 1, 1]) - g
-        hy = max(nodes[k, 1], nodes[k + 1, 1]) + g
+        lx, hx, ly, hy = _segment_box(nodes, k, seg_rad[k])
         for w in range(box_lo.shape[0]):
             if box_hi[w, 0] < lx or box_lo[w, 0] > hx or box_hi[w, 1] < ly or box_lo[w, 1] > hy:
                 continue
@@ -1068,11 +1052,7 @@ def touching(nodes, seg_rad, box_lo, box_hi, wa, wb, wpiece, wvert, wrad, pc0, u
     nf = box_lo.shape[0]
     out = np.zeros(nf, np.bool_)
     for k in range(seg_rad.shape[0]):
-        g = seg_rad[k] + reach
-        lx = min(nodes[k, 0], nodes[k + 1, 0]) - g
-        hx = max(nodes[k, 0], nodes[k + 1, 0]) + g
-        ly = min(nodes[k, 1], nodes[k + 1, 1]) - g
-        hy = max(nodes[k, 1], nodes[k + 1, 1]) + g
+        lx, hx, ly, hy = _segment_box(nodes, k, seg_rad[k] + reach)
         for w in range(nf):
             if out[w] or box_hi[w, 0] < lx or box_lo[w, 0] > hx or box_hi[w, 1] < ly or box_lo[w, 1] > hy:
                 continue
@@ -1104,9 +1084,8 @@ def select_features(nodes, seg_rad, box_lo, box_hi, reach):
         if box_hi[f, 0] < wlx - g or box_lo[f, 0] > whx + g or box_hi[f, 1] < wly - g or box_lo[f, 1] > why + g:
             continue
         for k in range(m):
-            r = seg_rad[k] + reach
-            if (box_hi[f, 0] >= min(nodes[k, 0], nodes[k + 1, 0]) - r and box_lo[f, 0] <= max(nodes[k, 0], nodes[k + 1, 0]) + r
-                    and box_hi[f, 1] >= min(nodes[k, 1], nodes[k + 1, 1]) - r and box_lo[f, 1] <= max(nodes[k, 1], nodes[k + 1, 1]) + r):
+            lx, hx, ly, hy = _segment_box(nodes, k, seg_rad[k] + reach)
+            if box_hi[f, 0] >= lx and box_lo[f, 0] <= hx and box_hi[f, 1] >= ly and box_lo[f, 1] <= hy:
                 out[cnt] = f
                 cnt += 1
                 break

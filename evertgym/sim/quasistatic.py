@@ -653,14 +653,13 @@ class QuasiStaticSim(GrowingTube):
         seg_rad = self.seg_rad[a:].copy()
         m = len(phi)
         phi_ref = phi.copy()
-        w_ = self._walls
-        if qk.overlaps(theta0, n0, phi, seg_len, seg_rad, *self._feature_boxes, w_.a, w_.b, w_.piece, w_.vertex, w_.radius, self._pc0,
-                       self._u_all):
+        walls = self._walls
+        if qk.overlaps(theta0, n0, phi, seg_len, seg_rad, *self._feature_boxes, walls.a, walls.b, walls.piece, walls.vertex,
+                       walls.radius, self._pc0, self._u_all):
             return False
         s_nodes = np.append(self.nodes[a : a + m], self.length)
         k_j = np.ascontiguousarray(self._k_all[a : a + m])
         mw_j = np.ascontiguousarray(self._mw_all[a : a + m])
-        walls = self._walls
         sel = qk.select_features(nodes[a:], seg_rad, *self._feature_boxes, cfg.barrier_gap_m + _QUERY_MARGIN_M)
         wpiece_g = walls.piece[sel]
         # the wall pieces the robot is about to touch are unknowns (independent springs); the other
@@ -669,7 +668,8 @@ class QuasiStaticSim(GrowingTube):
         pieces = np.zeros(0, np.int64)
         if np.any(wpiece_g >= 0):
             blo, bhi = self._feature_boxes
-            close = qk.near_features(nodes[a:], seg_rad, blo[sel], bhi[sel], cfg.barrier_gap_m + _PIECE_MARGIN_M)
+            close = np.zeros(len(sel), np.bool_)
+            close[qk.select_features(nodes[a:], seg_rad, blo[sel], bhi[sel], cfg.barrier_gap_m + _PIECE_MARGIN_M)] = True
             pieces = np.unique(wpiece_g[(wpiece_g >= 0) & close])
             if a > 0 and len(pieces):  # a piece the held body touches is held with it (else a solve could push it into the body)
                 held = qk.touching(nodes[: a + 1], self.seg_rad[:a], blo[sel], bhi[sel], walls.a[sel], walls.b[sel], wpiece_g,
