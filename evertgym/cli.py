@@ -355,7 +355,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         _check("--casing-friction", args.casing_friction, 0.0, 5.0, "")
     if args.seed < 0:
         raise CLIError(f"--seed = {args.seed!r} is out of range: allowed integers >= 0")
-    sim = _sim_overrides(args.sim, {"section_law": True} if args.section_law else None)
+    sim = _sim_overrides(args.sim, {"engine": "dynamic", "section_law": True} if args.section_law else None)
     scene_params = {"wall_friction": args.casing_friction} if args.casing_friction is not None else None
     trace = trace_ubend(args.radius_mm, args.reduction, args.seed, sim=sim or None, scene_params=scene_params)
     if args.plot:

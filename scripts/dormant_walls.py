@@ -25,7 +25,7 @@ EPS = (0.0, 1e-9, 1e-6, 1e-3)
 def run(dormant: bool, eps: float, pressure_kpa: float, sim_s: float = 12.0) -> dict:
     scene = make_scene({"family": "colon", "params": {}})
     design = TubeDesign(diameter_m=0.02, length_m=0.8, bands=tuple(Band(p, 0.1) for p in (0.25, 0.3, 0.35)))
-    sim = EversionSim(design, scene=scene, config=SimConfig(dormant_walls=dormant))
+    sim = EversionSim(design, scene=scene, config=SimConfig(engine="dynamic", dormant_walls=dormant))
     sim.set_pressure_command(pressure_kpa * 1e3 * (1 + eps))
     t0 = time.perf_counter()
     sim.run(sim_s)

@@ -37,7 +37,7 @@ def main() -> None:
     args = ap.parse_args()
     radii = [float(r) for r in args.radii.split(",")]
     reds = [float(r) for r in args.reductions.split(",")]
-    base = {"section_law": True, "bend_loss_per_rad": args.bend_loss, "tail_drag_fraction": args.tail, **json.loads(args.sim)}
+    base = {"engine": "dynamic", "section_law": True, "bend_loss_per_rad": args.bend_loss, "tail_drag_fraction": args.tail, **json.loads(args.sim)}
     cells: dict[str, dict[tuple[float, float], int]] = {}
     for name, knob in KNOBS:
         t0 = time.perf_counter()

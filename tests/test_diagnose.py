@@ -14,7 +14,7 @@ from evertgym.experiments.diagnose import plot_trace, trace_ubend
 
 @pytest.fixture(scope="module")
 def trace():
-    return trace_ubend(40.0, 0.0, 0, sim={"section_law": True})
+    return trace_ubend(40.0, 0.0, 0, sim={"engine": "dynamic", "section_law": True})
 
 
 def test_trace_samples_every_control_step_with_the_section_law_state(trace):

@@ -12,7 +12,7 @@ COLON_ROBOT = TubeDesign(diameter_m=0.02, length_m=0.8, bands=tuple(Band(p, 0.1)
 
 
 def colon_sim(**cfg) -> EversionSim:
-    return EversionSim(COLON_ROBOT, scene=make_scene({"family": "colon", "params": {}}), config=SimConfig(**cfg))
+    return EversionSim(COLON_ROBOT, scene=make_scene({"family": "colon", "params": {}}), config=SimConfig(engine="dynamic", **cfg))
 
 
 def test_off_by_default_and_every_piece_stays_dynamic():

@@ -34,14 +34,14 @@ def test_sim_override_reaches_the_trial_env():
     env.reset(seed=0)
     assert env.sim.cfg.dt_s == 0.001
     env.close()
-    colon = colon_specs(sim={"mass_ratio": 0.1})[1]
+    colon = colon_specs(sim={"engine": "dynamic", "mass_ratio": 0.1})[1]
     env = make_trial_env(colon)
     env.reset(seed=0)
     assert env.sim.cfg.mass_ratio == 0.1 and env.sim.cfg.dt_s == 0.002
     env.close()
     # a plain trial spec carrying the override in its episode table
     plain = TrialSpec(design={"tube": {"diameter_mm": 40.0, "length_mm": 500.0}, "bands": []}, design_name="d",
-                      scene={"family": "ubend", "params": {}, "seed": 0, "episode": {"sim": {"inertia_factor": 10.0}}},
+                      scene={"family": "ubend", "params": {}, "seed": 0, "episode": {"sim": {"engine": "dynamic", "inertia_factor": 10.0}}},
                       policy={"name": "constant", "pressure_kpa": 3.0}, seed=0, index=0, group="g")
     assert make_trial_env(plain).sim_config.inertia_factor == 10.0
 
@@ -68,8 +68,10 @@ def test_settings_and_table(tmp_path):
     from evertgym.experiments.invariance import SETTINGS, compare, format_table, ubend_table
     from evertgym.sim.config import SimConfig
 
-    assert SETTINGS[0] == ("reference", {})
-    assert [s for _, s in SETTINGS[1:]] == [{"mass_ratio": 0.003}, {"mass_ratio": 0.1}, {"inertia_factor": 10.0}, {"dt_s": 0.001}]
+    dyn = {"engine": "dynamic"}  # the dynamic engine's knobs (the default engine is the quasi-static one)
+    assert SETTINGS[0] == ("reference", dyn)
+    assert [s for _, s in SETTINGS[1:]] == [{**dyn, "mass_ratio": 0.003}, {**dyn, "mass_ratio": 0.1}, {**dyn, "inertia_factor": 10.0},
+                                           {**dyn, "dt_s": 0.001}]
     for _, sim in SETTINGS:
         SimConfig(**sim)  # valid, e.g. max_growth_speed * dt_s <= 0.2 ds
 

@@ -19,7 +19,7 @@ from evertgym.model.section_law import (
 )
 from evertgym.sim import EversionSim, SimConfig
 
-LAW = SimConfig(section_law=True)
+LAW = SimConfig(engine="dynamic", section_law=True)
 
 
 def test_unloaded_section_has_the_classical_moments():
@@ -89,13 +89,13 @@ def test_tip_slides_outside_the_friction_cone_and_buckles_inside_it(wall_deg, de
                                           ("force_window_s", 0.0), ("tail_drag_fraction", 1.5)])
 def test_section_law_settings_are_range_checked(field, value):
     with pytest.raises(ValueError, match=f"{field} = .* is out of range"):
-        SimConfig(section_law=True, **{field: value})
+        SimConfig(engine="dynamic", section_law=True, **{field: value})
 
 
 def test_force_criterion_relaxes_the_tip_region_to_the_tolerance():
     """After a growth step under ``relax_force_n`` the tip region's implied unbalanced force is
     below the tolerance, unless the step cap was reached."""
-    cfg = SimConfig(section_law=True, relax_force_n=0.05, max_relax_steps=1000)
+    cfg = SimConfig(engine="dynamic", section_law=True, relax_force_n=0.05, max_relax_steps=1000)
     from test_sim import _InclinedWall
 
     sim = EversionSim(TubeDesign(length_m=0.3), scene=_InclinedWall(0.1, 60.0), config=cfg)

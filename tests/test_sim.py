@@ -41,9 +41,9 @@ def test_hat_lumping_is_exact_for_a_uniform_rod():
 @pytest.mark.parametrize(
     "cfg",
     [
-        SimConfig(inertia_factor=16.0),
-        SimConfig(mass_ratio=0.05),
-        SimConfig(damping=1e-6),
+        SimConfig(engine="dynamic", inertia_factor=16.0),
+        SimConfig(engine="dynamic", mass_ratio=0.05),
+        SimConfig(engine="dynamic", damping=1e-6),
         SimConfig(dt_s=0.0005),
     ],
 )
@@ -78,7 +78,7 @@ def test_band_kinks_before_the_bare_tube_under_the_same_moment():
 def test_band_kinks_first_in_the_simulator():
     """A tube with a 30% band, loaded by a growing tip moment: the first kink is at the band."""
     design = TubeDesign(length_m=0.2, bands=(Band(0.1, 0.3),))
-    sim = EversionSim(design, config=SimConfig(initial_length_m=0.2))
+    sim = EversionSim(design, config=SimConfig(engine="dynamic", initial_length_m=0.2))  # pushes a body
     sim.set_pressure_command(3000.0)
     sim.run(1.0)
     tip = sim.bodies[-1]
@@ -183,7 +183,7 @@ def test_pressure_command_is_clipped_and_checked():
         (dict(dt_s=1e-9), r"dt_s = 1e-09 is out of range: allowed [1e-05, 0.01]"),  # would never finish
         (dict(damping=0.0), "damping"),
         (dict(wall_friction=float("nan")), "wall_friction"),
-        (dict(max_growth_speed_m_per_s=5.0), "max_growth_speed_m_per_s * dt_s"),
+        (dict(engine="dynamic", max_growth_speed_m_per_s=5.0), "max_growth_speed_m_per_s * dt_s"),
     ],
 )
 def test_sim_config_rejects_bad_settings(kwargs, field):
@@ -192,7 +192,7 @@ def test_sim_config_rejects_bad_settings(kwargs, field):
 
 
 def test_instability_names_the_setting_to_change():
-    sim = EversionSim(TubeDesign(), config=SimConfig(initial_length_m=0.1))
+    sim = EversionSim(TubeDesign(), config=SimConfig(engine="dynamic", initial_length_m=0.1))
     sim.bodies[-1].angular_velocity = 1e6
     with pytest.raises(NumericalInstabilityError, match="dt_s"):
         sim.step(1)
@@ -227,9 +227,10 @@ def test_tip_slides_along_an_oblique_wall_and_stalls_on_a_steep_one(wall_deg, de
     meeting a wall obliquely turns and grows along it; one meeting it nearly head-on stalls.
     Here the 40 mm robot at 3 kPa meets a wall 100 mm ahead at incidence 90 - wall_deg from
     the wall's normal: it slides along walls of 45 and 30 degrees incidence (tip friction
-    0.2, whose cone is 11 degrees) and stalls against 20 and 10 degrees (the rigid-column
-    model; tests/test_section_law.py has the section law's answer)."""
-    sim, heading = grow_into_inclined_wall(wall_deg)
+    0.2, whose cone is 11 degrees) and stalls against 20 and 10 degrees (the dynamic engine's
+    rigid-column model; tests/test_section_law.py has the section law's answer and
+    tests/test_quasistatic.py the quasi-static engine's)."""
+    sim, heading = grow_into_inclined_wall(wall_deg, SimConfig(engine="dynamic"))
     if deflects:
         assert sim.length == pytest.approx(0.3) and heading == pytest.approx(wall_deg, abs=10.0)
     else:

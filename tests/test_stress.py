@@ -61,6 +61,9 @@ from evertgym.scenes import Scene, SceneError, make_scene
 from evertgym.sim import EversionSim, NumericalInstabilityError, SimConfig
 from evertgym.sim.growth import MAX_PRESSURE_PA
 
+#: The dynamic pymunk chain, whose bodies, kinetic energy and rest lock most of these tests check
+#: (the quasi-static engine has no bodies to move: tests/test_quasistatic.py).
+DYNAMIC = SimConfig(engine="dynamic")
 #: Control period (s): the pressure command is updated and the state checked this often.
 CONTROL_PERIOD_S = 0.1
 #: Contact tolerance (m) for every centreline node but the tip's.
@@ -262,7 +265,7 @@ def check_scenario(sc: Scenario) -> None:
     """Build the scenario's scene and robot and run its pressure sequence, checking every 0.1 s."""
     scene = build(sc.spec)
     event(f"bands: {len(sc.design.bands)}")
-    sim = EversionSim(sc.design, scene=scene)
+    sim = EversionSim(sc.design, scene=scene, config=DYNAMIC)
     check_state(sim, scene)
     run_checked(sim, scene, sc.commands)
 
@@ -272,7 +275,7 @@ def check_hold(design: TubeDesign, spec: dict) -> None:
     largest kinetic energy of the last of those seconds may not exceed that of the first, up
     to a floor (the tip segment moving at 1 mm/s)."""
     scene = build(spec)
-    sim = EversionSim(design, scene=scene)
+    sim = EversionSim(design, scene=scene, config=DYNAMIC)
     energies: list[float] = []
     stopped_at: list[int] = []
 
@@ -380,7 +383,7 @@ def segment_offset_m(heading_deg: float) -> float:
     """Largest joint gap (m) of a robot growing towards ``heading_deg``, at construction and
     right after its first split."""
     a = math.radians(heading_deg)
-    sim = EversionSim(TubeDesign(), direction=(math.cos(a), math.sin(a)))
+    sim = EversionSim(TubeDesign(), direction=(math.cos(a), math.sin(a)), config=DYNAMIC)
     worst = float(np.max(joint_gaps(sim)))
     n = len(sim.bodies)
     sim.set_pressure_command(3000.0)
@@ -423,7 +426,7 @@ def stalled_robot(pressure_pa: float) -> EversionSim:
     """A 40 mm robot growing at ``pressure_pa`` into a tortuous channel's first bend, where it stalls."""
     scene = make_scene({"family": "tortuous", "params": {"robot_diameter_mm": 40.0, "lead_in_mm": 79.0,
                                                         "lead_out_mm": 475.0}, "seed": 0})
-    sim = EversionSim(TubeDesign(length_m=0.375), scene=scene)
+    sim = EversionSim(TubeDesign(length_m=0.375), scene=scene, config=DYNAMIC)
     sim.set_pressure_command(pressure_pa)
     return sim
 
@@ -517,7 +520,7 @@ def test_the_rest_lock_releases_when_the_pressure_rises():
     sim.run(0.5)
     assert not sim.at_rest
     assert sim.tip_force > 1.5 * force or sim.length > length + 0.005
-    free = EversionSim(TubeDesign(length_m=0.375), config=SimConfig(rest_speed_m_per_s=0.0),
+    free = EversionSim(TubeDesign(length_m=0.375), config=SimConfig(engine="dynamic", rest_speed_m_per_s=0.0),
                        scene=sim.scene)
     free.set_pressure_command(3000.0)
     free.run(4.0)

@@ -27,7 +27,7 @@ def test_zoo_entry_carries_every_hyperparameter_and_env_kwarg():
 
     cfg = load_config(AGENTS / "colon_ppo.toml")
     entry = zoo_hyperparams(cfg)
-    assert entry["env_kwargs"] == {"tip_sensing": True} and entry["normalize"] is True
+    assert entry["env_kwargs"] == {"tip_sensing": True, "sim_config": {"engine": "dynamic"}} and entry["normalize"] is True
     assert entry["n_steps"] == cfg["hyperparams"]["n_steps"] and entry["policy"] == "MlpPolicy"
     assert entry["policy_kwargs"] == {"net_arch": [64, 64]}
 

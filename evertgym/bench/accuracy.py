@@ -105,7 +105,7 @@ class SweepSetting:
     overrides: Mapping[str, float] = field(default_factory=dict)
 
     def config(self) -> SimConfig:
-        return replace(SimConfig(), **self.overrides)  # type: ignore[arg-type]  # int fields take ints
+        return replace(SimConfig(engine="dynamic"), **self.overrides)  # type: ignore[arg-type]  # int fields take ints
 
     def fidelity(self) -> dict[str, float]:
         """The values of :data:`FIDELITY_FIELDS` in this setting."""
@@ -357,7 +357,7 @@ def run_sweep(settings: Sequence[SweepSetting] | None = None, quick: bool = Fals
         row["pareto"] = flag
     eligible = [r for r in rows if r["tensile_converged"] and r["tip_force_error"] <= FORCE_ERROR_BUDGET
                 and r.get("wall_overlap_mm", 0.0) <= 0.0]
-    current = {name: getattr(SimConfig(), name) for name in FIDELITY_FIELDS}
+    current = {name: getattr(SimConfig(engine="dynamic"), name) for name in FIDELITY_FIELDS}
     default: dict = {"simconfig_default": current, "budget": FORCE_ERROR_BUDGET}
     if eligible:
         best = min(eligible, key=lambda r: r["wall_s_per_sim_s"])

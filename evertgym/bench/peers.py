@@ -244,7 +244,7 @@ def relax(advance: Callable[[int], None], tip_force: Callable[[], float], speed:
 def solve_evertgym(case: Case, segment_length_m: float, max_steps: int = MAX_STEPS, **setting: float) -> Relaxed:
     """evertgym's pymunk chain of ``segment_length_m`` (m) segments; ``setting`` overrides
     other :class:`SimConfig` fields (``iterations``, ``damping``)."""
-    default = SimConfig()  # the initial length only matters to growth; it may not be below a segment
+    default = SimConfig(engine="dynamic")  # the initial length only matters to growth; it may not be below a segment
     config = replace(default, segment_length_m=segment_length_m,
                      initial_length_m=max(default.initial_length_m, segment_length_m), **setting)  # type: ignore[arg-type]
     res = sim_tensile_test(case.design, case.displacement_m, case.pressure_pa, case.free_length_m, config=config,

@@ -44,7 +44,8 @@ def max_tip_force(case: str, section_law: bool) -> dict[str, Any]:
     """The largest wall force on the tip (N) over the run, the capacity ``p pi r^2`` and their ratio."""
     scene, diameter_m, length_m, run_s = CASES[case]
     t0 = time.perf_counter()
-    sim = EversionSim(TubeDesign(diameter_m=diameter_m, length_m=length_m), scene=scene(), config=SimConfig(section_law=section_law))
+    sim = EversionSim(TubeDesign(diameter_m=diameter_m, length_m=length_m), scene=scene(),
+                      config=SimConfig(engine="dynamic", section_law=section_law))
     sim.set_pressure_command(PRESSURE_PA)
     sim.run(run_s)
     capacity = PRESSURE_PA * math.pi * (diameter_m / 2) ** 2

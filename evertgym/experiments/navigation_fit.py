@@ -66,7 +66,8 @@ def _key(point: dict[str, float]) -> str:
 def evaluate(point: dict[str, float], store_dir: Path, trials: int = 12, radii: Sequence[float] = FIT_RADII_MM,
              workers: int | None = None, progress: bool = False) -> dict[int | float, int]:
     """Bare-robot passes per radius for one parameter point (resumable)."""
-    sim = {"section_law": True, "bend_loss_per_rad": point["bend_loss_per_rad"], "tail_drag_fraction": point["tail_drag_fraction"]}
+    sim = {"engine": "dynamic", "section_law": True,
+           "bend_loss_per_rad": point["bend_loss_per_rad"], "tail_drag_fraction": point["tail_drag_fraction"]}
     specs = ubend_specs(trials, radii=radii, reductions=(0.0,), sim=sim,
                         scene_params={"wall_friction": point["casing_friction_factor"]})
     records = _run(specs, store_dir / f"{_key(point)}.sqlite", "process", workers, progress)

@@ -113,7 +113,7 @@ class SimConfig:
     max_relax_steps: int = 50
     dormant_walls: bool = False
     wall_wake_margin_m: float = 0.03
-    engine: str = "dynamic"
+    engine: str = "quasistatic"
     growth_increment_m: float = 0.001
     solver_tolerance: float = 1e-3
     barrier_gap_m: float = 0.001
