@@ -18,6 +18,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
+from evertgym.experiments.sweep import with_engine
 from evertgym.scoring.spec import TrialSpec
 
 UBEND_RADII_MM = (40.0, 37.5, 35.0, 32.5, 30.0, 27.5, 25.0, 22.5, 20.0)
@@ -32,9 +33,9 @@ def ubend_design(reduction: float) -> dict:
 
 
 def _episode(episode: dict, sim: dict | None) -> dict:
-    """The trial's ``episode`` table, with ``"sim"`` (SimConfig overrides) only when given: specs
-    without overrides keep their keys, so existing stores stay valid."""
-    return {**episode, "sim": dict(sim)} if sim else episode
+    """The trial's ``episode`` table with ``"sim"``: the SimConfig overrides, the engine always
+    among them (:func:`~evertgym.experiments.sweep.with_engine`)."""
+    return with_engine({**episode, "sim": dict(sim or {})})
 
 
 def ubend_specs(trials: int = 12, radii=UBEND_RADII_MM, reductions=UBEND_REDUCTIONS, pressure_kpa: float = 3.0,

@@ -6,6 +6,16 @@ from pathlib import Path
 
 from evertgym.design import TubeDesign
 from evertgym.scoring.spec import TrialSpec
+from evertgym.sim.config import SimConfig
+
+
+def with_engine(episode: dict) -> dict:
+    """``episode`` with its ``"sim"`` overrides naming the engine the trial runs on (the default's
+    when not given).  The engine is part of a trial's identity: a store filled before the default
+    engine changed (0.3.0: ``"dynamic"`` -> ``"quasistatic"``) is not reused for the new one."""
+    sim = dict(episode.get("sim") or {})
+    sim.setdefault("engine", SimConfig().engine)
+    return {**episode, "sim": sim}
 
 
 def design_from_flags(diameter_mm: float, length_mm: float, bands_mm: list[float], reduction: float) -> dict:
@@ -42,7 +52,7 @@ def sweep_specs(
                     TrialSpec(
                         design=design,
                         design_name=name,
-                        scene={**scene, "seed": first_scene_seed + k, "episode": dict(episode or {})},
+                        scene={**scene, "seed": first_scene_seed + k, "episode": with_engine(dict(episode or {}))},
                         policy=policy,
                         seed=k * 100003 + i,
                         index=k * trials + i,
