@@ -1,7 +1,7 @@
 #!/usr/bin/env python
 """Cost per simulated second against total robot length (the active set at work).
 
-    python scripts/bench_sim_length.py [--lengths-m 0.2,0.8,2.0] [--pressure-kpa 3] [--repeats 3]
+    python scripts/bench_sim_length.py [--lengths-m 0.2,0.8,2.0] [--pressure-kpa 3] [--repeats 3] [--engine dynamic]
 
 Each robot (40 mm, no bands) grows at constant pressure through a 55 mm pipe with a
 90-degree bend (inner radius 60 mm) 100 mm from the base and a straight pipe after it.
@@ -17,15 +17,15 @@ import time
 
 from evertgym.design import TubeDesign
 from evertgym.scenes import make_scene
-from evertgym.sim import EversionSim
+from evertgym.sim import EversionSim, SimConfig
 
 
-def run(length_m: float, pressure_pa: float) -> dict:
+def run(length_m: float, pressure_pa: float, engine: str) -> dict:
     scene = make_scene(
         {"family": "bend", "params": {"angle_deg": 90.0, "radius_mm": 60.0, "lumen_mm": 55.0, "lead_in_mm": 100.0,
                                        "lead_out_mm": length_m * 1e3 + 100.0, "goal_after_bend_mm": 50.0}}
     )
-    sim = EversionSim(TubeDesign(length_m=length_m), scene=scene)
+    sim = EversionSim(TubeDesign(length_m=length_m), scene=scene, config=SimConfig(engine=engine))
     sim.set_pressure_command(pressure_pa)
     chunks = []  # (wall, sim) per 0.1 s
     while sim.length < length_m - 1e-9 and sim.t < 120.0:
@@ -39,8 +39,8 @@ def run(length_m: float, pressure_pa: float) -> dict:
         "growth": sum(chunks) / (0.1 * len(chunks)),
         "last_second": sum(chunks[-10:]) / (0.1 * len(chunks[-10:])),
         "hold": hold,
-        "active": len(sim.bodies) - sim.active_start,
-        "segments": len(sim.bodies),
+        "active": len(sim.radii()) - sim.active_start,
+        "segments": len(sim.radii()),
         "sim_s": sim.t,
     }
 
@@ -50,15 +50,16 @@ def main() -> None:
     ap.add_argument("--lengths-m", default="0.2,0.8,2.0")
     ap.add_argument("--pressure-kpa", type=float, default=3.0)
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--engine", choices=("quasistatic", "dynamic"), default=SimConfig().engine)
     args = ap.parse_args()
     rows = []
     for x in args.lengths_m.split(","):
-        runs = [run(float(x), args.pressure_kpa * 1e3) for _ in range(args.repeats)]
+        runs = [run(float(x), args.pressure_kpa * 1e3, args.engine) for _ in range(args.repeats)]
         row = {k: statistics.median(r[k] for r in runs) for k in ("growth", "last_second", "hold")}
         row.update(length_m=float(x), active=runs[-1]["active"], segments=runs[-1]["segments"], sim_s=runs[-1]["sim_s"])
         rows.append(row)
     b = rows[0]
-    print(f"wall seconds per simulated second (median of {args.repeats} runs)")
+    print(f"wall seconds per simulated second (median of {args.repeats} runs), engine {args.engine!r}")
     print(f"{'length_m':>8} {'sim_s':>6} {'growth':>8} {'ratio':>6} {'last_1s':>8} {'ratio':>6} {'hold':>8} {'ratio':>6} {'active/total':>13}")
     for r in rows:
         print(
