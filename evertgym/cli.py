@@ -510,7 +510,8 @@ def cmd_score(args: argparse.Namespace) -> int:
         params = json.loads(args.scene_params)
     except json.JSONDecodeError as e:
         raise CLIError(f"--scene-params = {args.scene_params!r}: malformed JSON: {e}") from None
-    episode = {"max_s": args.max_s, "band_offset_mm": [-args.band_jitter_mm, args.band_jitter_mm], "entry_offset_mm": [-5.0, 5.0]}
+    episode = {"max_s": args.max_s, "band_offset_mm": [-args.band_jitter_mm, args.band_jitter_mm], "entry_offset_mm": [-5.0, 5.0],
+               "sim": _sim_overrides(args.sim)}
     policy = check_score_flags(args, designs, params, episode, _policy_arg(args.policy))
     specs = sweep_specs(designs, {"family": args.scene, "params": params}, args.scenes, args.trials, policy, episode)
     Path(args.db).parent.mkdir(parents=True, exist_ok=True)
@@ -558,7 +559,7 @@ def cmd_optimize(args: argparse.Namespace) -> int:
     out = optimize_bands(
         {"family": args.scene, "params": params}, args.study, args.db, n_trials=args.trials, n_scenes=args.scenes,
         trials_per_scene=args.trials_per_scene, held_out_scenes=args.held_out, budget_kpa=args.budget_kpa,
-        policy=args.policy, backend=args.backend, progress=not args.json,
+        policy=args.policy, backend=args.backend, progress=not args.json, sim=_sim_overrides(args.sim),
     )
     if args.json:
         print(dumps(out, default=float))
@@ -781,6 +782,7 @@ def build_parser() -> argparse.ArgumentParser:
     sc.add_argument("--trust-model", action="store_true", help="load a model file that is not a shipped policy: model files are code "
                          "(pickles) and run when loaded")
     sc.add_argument("--plot", default=None, help="write the success-rate plot (PNG) here")
+    sc.add_argument("--sim", default=None, help='SimConfig overrides as JSON, e.g. \'{"engine": "dynamic"}\' (default: the quasi-static engine)')
     sc.add_argument("--json", action="store_true", help=_JSON_HELP)
     sc.set_defaults(func=cmd_score)
 
@@ -796,6 +798,7 @@ def build_parser() -> argparse.ArgumentParser:
     op.add_argument("--study", default="runs/optimize_study.sqlite", help="optuna study (resumable)")
     op.add_argument("--db", default="runs/optimize_trials.sqlite", help="result store of the trials (resumable)")
     op.add_argument("--backend", choices=["process", "serial", "dask"], default="process", help=_BACKEND_HELP)
+    op.add_argument("--sim", default=None, help='SimConfig overrides as JSON, e.g. \'{"engine": "dynamic"}\' (default: the quasi-static engine)')
     op.add_argument("--json", action="store_true", help=_JSON_HELP)
     op.set_defaults(func=cmd_optimize)
 

@@ -185,11 +185,32 @@ def test_score_resumes_from_its_store(tmp_path, capsys):
         (["--scene-params", "{radius"], "malformed JSON"),
         (["--scene", "ubend", "--scene-params", '{"radius_mm": 10}'], "radius_mm = 10 is out of range"),
         (["--policy", "constant:pressure_kpa=high"], "pressure_kpa must be a number"),
+        (["--sim", '{"mass_ratio": 0.1}'], "mass_ratio = 0.1 means nothing to engine 'quasistatic'"),
+        (["--sim", '{"engine": "implicit"}'], "engine = 'implicit' is out of range"),
     ],
 )
 def test_score_rejects_bad_input(tmp_path, capsys, argv, message):
     assert main(["score", "--db", str(tmp_path / "x.sqlite"), "--backend", "serial", *argv]) == 2
     assert message in capsys.readouterr().err
+
+
+def test_score_runs_either_engine_and_keeps_their_results_apart(tmp_path, capsys):
+    """``--sim`` reaches every trial; the same design on the other engine is a different trial
+    (the store holds both), and each engine's rerun reuses its own."""
+    db = str(tmp_path / "s.sqlite")
+    base = ["score", "--scene", "ubend", "--scene-params", '{"radius_mm": 40}', "--scenes", "1", "--trials", "1", "--db", db,
+            "--backend", "serial", "--json", "--max-s", "3"]
+    out = {}
+    for engine in ("quasistatic", "dynamic"):
+        assert main([*base, "--sim", json.dumps({"engine": engine})]) == 0
+        out[engine] = json.loads(capsys.readouterr().out)["rows"][0]
+    assert main(base) == 0  # the default engine: the quasi-static trial, reused
+    assert json.loads(capsys.readouterr().out)["rows"][0] == out["quasistatic"]
+    from evertgym.scoring.store import ResultStore
+
+    with ResultStore(db) as store:
+        engines = sorted(r.spec.scene["episode"]["sim"]["engine"] for r in store.results())
+    assert engines == ["dynamic", "quasistatic"]
 
 
 def test_optimize_resumes_its_study_and_compares_with_the_paper_design(tmp_path):

@@ -15,7 +15,7 @@ from pathlib import Path
 from tqdm import tqdm
 
 from evertgym._extras import require
-from evertgym.experiments.sweep import sweep_specs
+from evertgym.experiments.sweep import sweep_specs, with_engine
 from evertgym.experiments.trial import run_trial
 from evertgym.scoring.runner import run_trials
 from evertgym.scoring.stats import summarize
@@ -46,10 +46,14 @@ def optimize_bands(
     backend: str = "process",
     seed: int = 0,
     progress: bool = False,
+    sim: dict | None = None,
 ) -> dict:
     """Run (or resume) the search and score its best design against the paper's on held-out
     scenes: ``{"best_params", "best_design", "held_out", "trials"}``.  ``progress`` shows a bar
-    over the designs with the best score so far, then one over the held-out trials (stderr)."""
+    over the designs with the best score so far, then one over the held-out trials (stderr).
+    ``sim`` overrides :class:`~evertgym.sim.config.SimConfig` fields in every trial; the study is
+    kept per engine (``bands-<engine>`` in ``study_path``), so a study of one engine never
+    resumes on another."""
     require("evertgym optimize (optimize_bands)", "optuna")
     import optuna
 
@@ -58,10 +62,10 @@ def optimize_bands(
     if not (0 < budget_kpa <= 8.0):
         raise ValueError(f"budget_kpa = {budget_kpa!r} is out of range: allowed (0, 8] kPa")
     pol = {"name": "constant", "pressure_kpa": budget_kpa} if policy == "constant" else {"name": "operator", "max_kpa": budget_kpa}
-    episode = {"max_s": 20.0, "band_offset_mm": [-25.0, 25.0], "entry_offset_mm": [-5.0, 5.0]}
+    episode = with_engine({"max_s": 20.0, "band_offset_mm": [-25.0, 25.0], "entry_offset_mm": [-5.0, 5.0], "sim": dict(sim or {})})
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     study = optuna.create_study(
-        study_name="bands", storage=f"sqlite:///{Path(study_path).resolve()}", load_if_exists=True,
+        study_name=f"bands-{episode['sim']['engine']}", storage=f"sqlite:///{Path(study_path).resolve()}", load_if_exists=True,
         direction="maximize", sampler=optuna.samplers.TPESampler(seed=seed),
     )
 
