@@ -18,7 +18,7 @@ def test_shipped_policy_loads_with_its_env_and_accepts_that_env_for_fine_tuning(
     from stable_baselines3.common.vec_env import DummyVecEnv
 
     policy, env_id, env_kwargs = load_policy("colon_ppo")
-    assert env_id == "evertgym/Colon-v0" and env_kwargs == {"tip_sensing": True}
+    assert env_id == "evertgym/Colon-v0" and env_kwargs == {"tip_sensing": True, "sim_config": {"engine": "dynamic"}}
     env = gym.make(env_id, **env_kwargs)
     obs, info = env.reset(seed=0)
     policy.reset(env)
