@@ -188,3 +188,24 @@ def test_the_wall_never_pushes_harder_than_the_tube_can_at_8kpa(family):
     assert (family == "straight" or sim.max_contact_force > 0.1 * cap) and sim.max_contact_force <= cap
     stats = sim.solve_stats
     assert stats["solves"] > 0 and stats["solve_failures"] <= 0.01 * stats["solves"]
+
+
+def test_a_band_the_pressure_cannot_evert_stalls_the_robot_at_the_band():
+    """A 30% band's eversion threshold (about 1.6 kPa, Exp 4's law) jumps up where the band starts.
+    At 1.2 kPa the robot grows to the band's start and stalls there: the growth law reads the
+    threshold of the material about to evert, so the robot reports no growth, a stall, and stops
+    re-solving.  Fixed defect, kept as a regression test: it read the bare material's threshold
+    behind the jump, reported 0.1 m/s while standing still, never stalled (an operator never raised
+    the pressure, a scored trial never gave up) and re-solved the tip about 1000 times per second.
+    At 2.5 kPa the band everts and the robot reaches full length."""
+    design = TubeDesign(length_m=0.3, bands=(Band(0.1, 0.3),))
+    held = EversionSim(design, config=QS)
+    held.set_pressure_command(1200.0)
+    held.run(4.0)
+    assert held.stalled and held.growth_speed == 0.0 and [e.kind for e in held.events] == ["stall"]
+    assert held.length == pytest.approx(0.1 - 0.0075, abs=1e-4)  # the band's start (15 mm wide)
+    assert held.solve_stats["solves"] < 100
+    passes = EversionSim(design, config=QS)
+    passes.set_pressure_command(2500.0)
+    passes.run(4.0)
+    assert passes.length == pytest.approx(0.3) and not passes.stalled

@@ -250,6 +250,9 @@ class QuasiStaticSim(GrowingTube):
         self._step_max_contact = 0.0
         self._pending = 0.0
         self._p_solved = -1.0
+        # the tip's required pressure (Pa) just past where the last growth attempt stopped short (0: it
+        # did not; inf: any further growth overlaps a wall): the material about to evert needs it
+        self._req_ahead = 0.0
         self._stats = SolveStats()
         self._fric = {"s": np.zeros(0), "wall": np.zeros(0, np.int64), "wl": np.zeros((0, 2)), "t": np.zeros((0, 2)), "ml": np.zeros(0)}
         self._seg_force = np.zeros((0, 2))  # per segment: sum of wall forces (N), sum of p x f (N m)
@@ -384,15 +387,15 @@ class QuasiStaticSim(GrowingTube):
             p_sum += p
             self.peak_pressure = max(self.peak_pressure, p)
             v = 0.0
-            if self.length < self.design.length_m:
-                v = self.growth.speed(p, self._required(self.tip_force))
+            if self.length < self.design.length_m:  # as fast as the material about to evert allows
+                v = self.growth.speed(p, max(self._required(self.tip_force), self._req_ahead))
             self._pending = min(self._pending + v * dt, self.design.length_m - self.length)
             # re-solve after a pressure increment; and once the regulator has (nearly) reached its
             # command, at the pressure it settles at (a plateau is solved within a tenth of the increment)
             step_pa = cfg.pressure_increment_fraction * max(self._p_solved, _P_SCALE_FLOOR)
             off = abs(p - self._p_solved)
             moved = off > step_pa or (off > 0.1 * step_pa and abs(self.regulator.command - p) <= 0.1 * step_pa)
-            if self._pending >= self._increment() or (moved and (self._contact_segs or self._pending > 0)) or (
+            if self._pending >= self._increment() or (moved and (self._contact_segs or self._pending > 0 or self._req_ahead > 0)) or (
                     self._pending > 0 and self.length + self._pending >= self.design.length_m - 1e-12):
                 self._advance(p)
             elif moved:
@@ -440,6 +443,7 @@ class QuasiStaticSim(GrowingTube):
         the two meet (:meth:`_cut_back`), and growth stops there."""
         self._apply_pressure(p)
         self._p_solved = p
+        self._req_ahead = 0.0
         remaining = self._pending
         self._pending = 0.0
         if remaining <= 0:
@@ -464,18 +468,22 @@ class QuasiStaticSim(GrowingTube):
                 dl = min(2.0 * dl, dl_max)
                 self._publish()
                 continue
-            self._cut_back(start, dl, p)
+            self._cut_back(start, dl, p, self._required(self.tip_force) if ok else math.inf)
             break
         self._publish()
 
-    def _cut_back(self, start: tuple, dl: float, p: float) -> None:
+    def _cut_back(self, start: tuple, dl: float, p: float, req_end: float) -> None:
         """Find, from state ``start``, the growth in ``(0, dl)`` at which the tip's required pressure
         meets ``p`` (regula falsi, Illinois variant, on ``p_req(L) - p``; a length whose solve
         overlaps a wall counts as too far) and leave the body there: within ``dl / 128`` of it or
-        with ``|p_req - p|`` below 0.2% of ``p``."""
+        with ``|p_req - p|`` below 0.2% of ``p``.  ``req_end``: the required pressure at ``dl``
+        (inf if it overlaps).  The required pressure at the shortest length found too far is kept
+        (``_req_ahead``): where it jumps (a band's eversion threshold at the tip) the tip stands at
+        the jump, and the growth law reads that pressure, not the lower one behind it."""
         lo, hi = 0.0, dl
         g_lo = self._required(start[9]) - p
         g_hi = math.inf
+        req_hi = req_end
         best, side = None, 0
         for _ in range(_BISECTIONS):
             if math.isfinite(g_hi) and g_hi > g_lo:
@@ -494,7 +502,7 @@ class QuasiStaticSim(GrowingTube):
                 if -g <= 2e-3 * p:
                     break
             else:
-                hi, g_hi = mid, g
+                hi, g_hi, req_hi = mid, g, g + p
                 if side == 1:
                     g_lo *= 0.5
                 side = 1
@@ -505,6 +513,7 @@ class QuasiStaticSim(GrowingTube):
             self._solve()
         else:
             self._restore(best)
+        self._req_ahead = req_hi
 
     def _grow(self, dl: float) -> bool:
         """Lengthen the tip segment by ``dl`` (m), splitting it past two segments; the tip's radius
