@@ -35,6 +35,12 @@ MAX_ITERATIONS = 1
 LINE_SEARCH_FAILED = 2
 INFEASIBLE_START = 3
 
+#: Reach (m) beyond the barrier gap of the pairs a Newton solve evaluates: re-listed from its candidates
+#: whenever a gap may have changed by more than this since they were listed.
+_NEAR_MARGIN_M = 1e-3
+#: Allowance (m) for rounding in the bound on a gap's change.
+_NEAR_SLACK_M = 1e-9
+
 
 @nb.njit(cache=True, nogil=True)
 def _law_eval(x: float, table_u: np.ndarray, table_h: np.ndarray, table_hi: np.ndarray, slope_tail: float):
@@ -773,6 +779,67 @@ def _schur_solve(hess, rhs, m, npc, mu0):
 
 
 @nb.njit(cache=True, nogil=True)
+def _piece_reach(wa, wb, wpiece, npc):
+    """Per wall piece: the largest distance (m) of its features' end points from its origin (a
+    rotation by ``dtheta`` moves none of them by more than this times ``|dtheta|``)."""
+    rho = np.zeros(npc)
+    for w in range(wa.shape[0]):
+        p = wpiece[w]
+        if p >= 0:
+            rho[p] = max(rho[p], math.sqrt(wa[w, 0] ** 2 + wa[w, 1] ** 2), math.sqrt(wb[w, 0] ** 2 + wb[w, 1] ** 2))
+    return rho
+
+
+@nb.njit(cache=True, nogil=True)
+def _moved(nodes, ref_nodes, u, ref_u, rho):
+    """Bound (m) on the change of any robot-wall gap since the configuration ``ref_nodes``, ``ref_u``:
+    the largest node displacement (a segment's points move no further than its ends) plus the largest
+    displacement of a wall piece's point."""
+    d = 0.0
+    for j in range(nodes.shape[0]):
+        d = max(d, math.sqrt((nodes[j, 0] - ref_nodes[j, 0]) ** 2 + (nodes[j, 1] - ref_nodes[j, 1]) ** 2))
+    dp = 0.0
+    for p in range(u.shape[0]):
+        dp = max(dp, math.sqrt((u[p, 0] - ref_u[p, 0]) ** 2 + (u[p, 1] - ref_u[p, 1]) ** 2) + rho[p] * abs(u[p, 2] - ref_u[p, 2]))
+    return d + dp
+
+
+@nb.njit(cache=True, nogil=True)
+def _rows_below(rows, reach):
+    """``(k, w)`` of the contact rows (:func:`pair_rows`) with a gap below ``reach`` (m), in order."""
+    cnt = 0
+    for i in range(rows.shape[0]):
+        if rows[i, 10] < reach:
+            cnt += 1
+    out = np.empty((cnt, 2), np.int64)
+    cnt = 0
+    for i in range(rows.shape[0]):
+        if rows[i, 10] < reach:
+            out[cnt, 0] = int(rows[i, 0])
+            out[cnt, 1] = int(rows[i, 1])
+            cnt += 1
+    return out
+
+
+@nb.njit(cache=True, nogil=True)
+def _near_pairs(nodes, pairs, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, reach):
+    """The pairs ``(k, w)`` of ``pairs`` with a gap below ``reach`` (m) at ``nodes``, ``u``, in order."""
+    keep = np.empty(pairs.shape[0], np.bool_)
+    cnt = 0
+    for c in range(pairs.shape[0]):
+        keep[c] = _pair_at(nodes, pairs[c, 0], pairs[c, 1], seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u)[10] < reach
+        cnt += keep[c]
+    out = np.empty((cnt, 2), np.int64)
+    cnt = 0
+    for c in range(pairs.shape[0]):
+        if keep[c]:
+            out[cnt, 0] = pairs[c, 0]
+            out[cnt, 1] = pairs[c, 1]
+            cnt += 1
+    return out
+
+
+@nb.njit(cache=True, nogil=True)
 def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
           wa, wb, wpiece, wvert, wrad, pc0, u, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0, fr_xw0,
           dhat, kappa, eps_v, tol_m, tol_f, max_iter, max_move, cand):
@@ -784,11 +851,18 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
     m = phi.shape[0]
     npc = u.shape[0]
     n = m + 3 * npc
-    pairs = _rows_to_pairs(pair_rows(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, cand, dhat, 2.0 * max_move))
+    rows = pair_rows(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, cand, dhat, 2.0 * max_move)
+    pairs = _rows_to_pairs(rows)
     anchor, _ = chain_nodes(theta0, n0, phi, seg_len)
     anchor_u = u.copy()
+    # the pairs within dhat + _NEAR_MARGIN_M of the reference configuration (ref_nodes, ref_u): every pair
+    # that can act while nothing has moved by more than the margin since (the others add exactly zero)
+    rho = _piece_reach(wa, wb, wpiece, npc)
+    near = _rows_below(rows, dhat + _NEAR_MARGIN_M)
+    ref_nodes = anchor
+    ref_u = u.copy()
     e0 = energy(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
-                wa, wb, wpiece, wvert, wrad, pc0, u, pairs, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0, fr_xw0,
+                wa, wb, wpiece, wvert, wrad, pc0, u, near, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0, fr_xw0,
                 dhat, kappa, eps_v)
     if not math.isfinite(e0):
         return INFEASIBLE_START, 0, np.inf, np.inf
@@ -798,7 +872,7 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
     damp = 0.0  # Levenberg-Marquardt damping: grows while steps are cut short, shrinks when they are taken whole
     for it in range(max_iter + 1):
         grad, hess = grad_hess(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
-                               wa, wb, wpiece, wvert, wrad, pc0, u, pairs, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam,
+                               wa, wb, wpiece, wvert, wrad, pc0, u, near, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam,
                                fr_xr0, fr_xw0, dhat, kappa, eps_v, True)
         res_m = 0.0
         for j in range(m):
@@ -841,8 +915,13 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
                 u_try[p, 0] = u[p, 0] + alpha * step[m + 3 * p]
                 u_try[p, 1] = u[p, 1] + alpha * step[m + 3 * p + 1]
                 u_try[p, 2] = u[p, 2] + alpha * step[m + 3 * p + 2]
+            trial_nodes, _ = chain_nodes(theta0, n0, trial_phi, seg_len)
+            if _moved(trial_nodes, ref_nodes, u_try, ref_u, rho) > _NEAR_MARGIN_M - _NEAR_SLACK_M:
+                near = _near_pairs(trial_nodes, pairs, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u_try, dhat + _NEAR_MARGIN_M)
+                ref_nodes = trial_nodes
+                ref_u = u_try.copy()
             e1 = energy(theta0, n0, trial_phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
-                        wa, wb, wpiece, wvert, wrad, pc0, u_try, pairs, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam,
+                        wa, wb, wpiece, wvert, wrad, pc0, u_try, near, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam,
                         fr_xr0, fr_xw0, dhat, kappa, eps_v)
             if math.isfinite(e1) and (e1 <= e0 + 1e-4 * alpha * slope or (e1 - e0) <= 1e-13 * abs(e0)):
                 accepted = True
@@ -869,13 +948,18 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
         for p in range(npc):
             drift = max(drift, math.sqrt((u[p, 0] - anchor_u[p, 0]) ** 2 + (u[p, 1] - anchor_u[p, 1]) ** 2) + 0.05 * abs(u[p, 2] - anchor_u[p, 2]))
         if drift > max_move:
-            pairs = _rows_to_pairs(pair_rows(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, cand, dhat,
-                                             2.0 * max_move))
+            rows = pair_rows(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, cand, dhat, 2.0 * max_move)
+            pairs = _rows_to_pairs(rows)
             anchor = now
             anchor_u = u.copy()
-        e0 = energy(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
-                    wa, wb, wpiece, wvert, wrad, pc0, u, pairs, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam,
-                    fr_xr0, fr_xw0, dhat, kappa, eps_v)
+            near = _rows_below(rows, dhat + _NEAR_MARGIN_M)
+            ref_nodes = now
+            ref_u = u.copy()
+            e0 = energy(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
+                        wa, wb, wpiece, wvert, wrad, pc0, u, near, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam,
+                        fr_xr0, fr_xw0, dhat, kappa, eps_v)
+        else:  # the same pairs at the accepted trial: its energy
+            e0 = e1
     return MAX_ITERATIONS, max_iter, res_m, res_f
 
 
