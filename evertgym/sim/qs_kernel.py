@@ -40,6 +40,8 @@ INFEASIBLE_START = 3
 _NEAR_MARGIN_M = 1e-3
 #: Allowance (m) for rounding in the bound on a gap's change.
 _NEAR_SLACK_M = 1e-9
+#: Segments per block in the candidate search of :func:`contacts` (a block's circle is tested first).
+_BLOCK = 8
 
 
 @nb.njit(cache=True, nogil=True)
@@ -225,23 +227,43 @@ def contacts(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0
         circ[w, 2] = 0.5 * math.sqrt((dx - cx) ** 2 + (dy - cy) ** 2) + wrad[w] + dhat + margin
     cand = np.empty((m * 8 + 16, 2), np.int64)  # the pairs whose bounding circles come within reach
     cnt = 0
-    for k in range(m):
-        mx = 0.5 * (nodes[k, 0] + nodes[k + 1, 0])
-        my = 0.5 * (nodes[k, 1] + nodes[k + 1, 1])
-        own = 0.5 * seg_len[k] + seg_rad[k]
+    near = np.empty(nw, np.int64)
+    for k0 in range(0, m, _BLOCK):  # a block of segments' bounding circle first: the features near it
+        k1 = min(k0 + _BLOCK, m)
+        bx = 0.5 * (nodes[k0, 0] + nodes[k1, 0])
+        by = 0.5 * (nodes[k0, 1] + nodes[k1, 1])
+        big = 0.0
+        for k in range(k0, k1):
+            mx = 0.5 * (nodes[k, 0] + nodes[k + 1, 0])
+            my = 0.5 * (nodes[k, 1] + nodes[k + 1, 1])
+            big = max(big, math.sqrt((mx - bx) ** 2 + (my - by) ** 2) + 0.5 * seg_len[k] + seg_rad[k])
+        big += 1e-9  # rounding: never narrower than its segments' circles
+        nn = 0
         for w in range(nw):
-            reach = own + circ[w, 2]
-            ddx = circ[w, 0] - mx
-            ddy = circ[w, 1] - my
-            if ddx * ddx + ddy * ddy > reach * reach:
-                continue
-            if cnt == cand.shape[0]:
-                bigger = np.empty((2 * cnt, 2), np.int64)
-                bigger[:cnt] = cand
-                cand = bigger
-            cand[cnt, 0] = k
-            cand[cnt, 1] = w
-            cnt += 1
+            reach = big + circ[w, 2]
+            ddx = circ[w, 0] - bx
+            ddy = circ[w, 1] - by
+            if ddx * ddx + ddy * ddy <= reach * reach:
+                near[nn] = w
+                nn += 1
+        for k in range(k0, k1):
+            mx = 0.5 * (nodes[k, 0] + nodes[k + 1, 0])
+            my = 0.5 * (nodes[k, 1] + nodes[k + 1, 1])
+            own = 0.5 * seg_len[k] + seg_rad[k]
+            for i in range(nn):
+                w = near[i]
+                reach = own + circ[w, 2]
+                ddx = circ[w, 0] - mx
+                ddy = circ[w, 1] - my
+                if ddx * ddx + ddy * ddy > reach * reach:
+                    continue
+                if cnt == cand.shape[0]:
+                    bigger = np.empty((2 * cnt, 2), np.int64)
+                    bigger[:cnt] = cand
+                    cand = bigger
+                cand[cnt, 0] = k
+                cand[cnt, 1] = w
+                cnt += 1
     return pair_rows(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, cand[:cnt], dhat, margin)
 
 
@@ -655,21 +677,28 @@ def _cholesky_solve(hess, rhs, mu0=0.0):
             a[i, i] += mu
         low, ok = _try_cholesky(a)
         if ok:
-            y = np.empty(n)
-            for i in range(n):
-                t = rhs[i]
-                for k in range(i):
-                    t -= low[i, k] * y[k]
-                y[i] = t / low[i, i]
-            x = np.empty(n)
-            for i in range(n - 1, -1, -1):
-                t = y[i]
-                for k in range(i + 1, n):
-                    t -= low[k, i] * x[k]
-                x[i] = t / low[i, i]
-            return x, mu
+            return _substitute(low, rhs), mu
         mu = max(1e-8 * diag_max, 1e-12) if mu == 0.0 else mu * 10.0
     return np.zeros(n), -1.0
+
+
+@nb.njit(cache=True, nogil=True)
+def _substitute(low, rhs):
+    """Solve ``L L^T x = rhs`` for the Cholesky factor ``L`` (forward, then back substitution)."""
+    n = rhs.shape[0]
+    y = np.empty(n)
+    for i in range(n):
+        t = rhs[i]
+        for k in range(i):
+            t -= low[i, k] * y[k]
+        y[i] = t / low[i, i]
+    x = np.empty(n)
+    for i in range(n - 1, -1, -1):
+        t = y[i]
+        for k in range(i + 1, n):
+            t -= low[k, i] * x[k]
+        x[i] = t / low[i, i]
+    return x
 
 
 @nb.njit(cache=True, nogil=True)
@@ -758,8 +787,9 @@ def _schur_solve(hess, rhs, m, npc, mu0):
             r = rhs[:m] - bd @ rc if nc else rhs[:m].copy()
             for i in range(m):
                 schur[i, i] += mu
-            xs, shift = _cholesky_solve(schur, r, 0.0)
-            if shift == 0.0:
+            low, spd = _try_cholesky(schur)  # else a larger shift for every factor
+            if spd:
+                xs = _substitute(low, r)
                 x = np.empty(n)
                 x[:m] = xs
                 btx = np.ascontiguousarray(b.T) @ xs if nc else np.zeros(0)
