@@ -390,12 +390,12 @@ def _add_point_force(k, px, py, fx, fy, acc_f, acc_m, acc_fx):
 
 
 @nb.njit(cache=True, nogil=True)
-def _rank1(hess, smat, m, k, px, py, nodes, dirx, diry, piece, pc_x, pc_y, wx, wy, coef):
+def _rank1(hjp, hpp, smat, k, px, py, nodes, dirx, diry, piece, pc_x, pc_y, wx, wy, coef):
     """Add ``coef g g^T`` for the gradient ``g`` of ``dir . (p - q)``.  Its robot part,
     ``g_j = (p - n_j) x dir = v . w_j`` for the joints ``j <= k`` with ``v = (p x dir, dir_y, dir_x)``
     and ``w_j = (1, -n_jx, n_jy)``, goes into the 3 x 3 sums ``smat[k]`` (summed from the tip and
-    expanded by :func:`grad_hess` in O(m^2)); a wall piece's part (``-dir``, ``-(q - c) x dir``) and
-    its coupling to the joints go into ``hess`` directly."""
+    expanded by :func:`grad_hess` in O(m^2)); a wall piece's part (``-dir``, ``-(q - c) x dir``) goes
+    into its block ``hpp`` and its coupling to the joints into ``hjp`` directly."""
     v0 = px * diry - py * dirx
     v1 = diry
     v2 = dirx
@@ -413,25 +413,23 @@ def _rank1(hess, smat, m, k, px, py, nodes, dirx, diry, piece, pc_x, pc_y, wx, w
     gp0 = -dirx
     gp1 = -diry
     gp2 = -((wx - pc_x) * diry - (wy - pc_y) * dirx)
-    o = m + 3 * piece
+    o = 3 * piece
     for j in range(k + 1):
         gj = v0 - nodes[j, 0] * v1 + nodes[j, 1] * v2
         c = coef * gj
-        hess[j, o] += c * gp0
-        hess[j, o + 1] += c * gp1
-        hess[j, o + 2] += c * gp2
-        hess[o, j] += c * gp0
-        hess[o + 1, j] += c * gp1
-        hess[o + 2, j] += c * gp2
-    hess[o, o] += coef * gp0 * gp0
-    hess[o, o + 1] += coef * gp0 * gp1
-    hess[o, o + 2] += coef * gp0 * gp2
-    hess[o + 1, o] += coef * gp1 * gp0
-    hess[o + 1, o + 1] += coef * gp1 * gp1
-    hess[o + 1, o + 2] += coef * gp1 * gp2
-    hess[o + 2, o] += coef * gp2 * gp0
-    hess[o + 2, o + 1] += coef * gp2 * gp1
-    hess[o + 2, o + 2] += coef * gp2 * gp2
+        hjp[j, o] += c * gp0
+        hjp[j, o + 1] += c * gp1
+        hjp[j, o + 2] += c * gp2
+    d = hpp[piece]
+    d[0, 0] += coef * gp0 * gp0
+    d[0, 1] += coef * gp0 * gp1
+    d[0, 2] += coef * gp0 * gp2
+    d[1, 0] += coef * gp1 * gp0
+    d[1, 1] += coef * gp1 * gp1
+    d[1, 2] += coef * gp1 * gp2
+    d[2, 0] += coef * gp2 * gp0
+    d[2, 1] += coef * gp2 * gp1
+    d[2, 2] += coef * gp2 * gp2
 
 
 @nb.njit(cache=True, nogil=True)
@@ -458,10 +456,11 @@ def _apply_force(m, k, s, px, py, qx, qy, fx, fy, p, pc0, u, ex, ey, acc_f, acc_
 
 @nb.njit(cache=True, nogil=True)
 def _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, pairs, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0, fr_xw0,
-                   dhat, kappa, eps_v, grad, hess, smat, va, vf, want_hess):
+                   dhat, kappa, eps_v, grad, hjp, hpp, smat, va, vf, want_hess):
     """Barrier and lagged-friction forces of the window: per segment the sums of the force on the
     robot ``f`` (N), of ``p x f`` (N m) and of ``f . p`` (N m); the wall pieces' generalised forces
-    go into ``grad[m:]``, the rank-one Hessian terms into ``hess`` (if ``want_hess``).  Also the
+    go into ``grad[m:]``, the rank-one Hessian terms into ``smat``, ``hjp`` and ``hpp`` (if ``want_hess``; see
+    :func:`grad_hess`).  Also the
     wall's reaction against growth ``-sum s f . e_tip`` over the tip segment (N) and the total force
     on the tip segment (N)."""
     acc_f = np.zeros((m, 2))
@@ -484,7 +483,7 @@ def _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0,
         p = wpiece[w]
         ccx, ccy = _apply_force(m, k, s, px, py, qx, qy, fmag * nx, fmag * ny, p, pc0, u, ex, ey, acc_f, acc_m, acc_fx, tip, grad)
         if want_hess:
-            _rank1(hess, smat, m, k, px, py, nodes, nx, ny, p, ccx, ccy, qx, qy, kappa * b2)
+            _rank1(hjp, hpp, smat, k, px, py, nodes, nx, ny, p, ccx, ccy, qx, qy, kappa * b2)
             if wvert[w] and 0.0 < s < 1.0:
                 # a wall vertex against the segment's side: the distance to a line that turns with the
                 # joints, d2D/dphi_i dphi_j = n . (p - n_min(i,j)) - D, replaces the material point's
@@ -496,33 +495,28 @@ def _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0,
                 vf[k, 0] += fx
                 vf[k, 1] += fy
                 if p >= 0:  # the vertex moves with its piece; the line turns with the joints
-                    o = m + 3 * p
+                    o = 3 * p
                     hx = -ny * fmag
                     hy = nx * fmag
                     hr = fmag * (nx * (qx - ccx) + ny * (qy - ccy))
                     for j in range(k + 1):
-                        hess[j, o] += hx
-                        hess[o, j] += hx
-                        hess[j, o + 1] += hy
-                        hess[o + 1, j] += hy
-                        hess[j, o + 2] += hr
-                        hess[o + 2, j] += hr
-                    hess[o + 2, o + 2] -= hr
+                        hjp[j, o] += hx
+                        hjp[j, o + 1] += hy
+                        hjp[j, o + 2] += hr
+                    hpp[p, 2, 2] -= hr
             elif _point_point(s, qx, qy, cx, cy, dx, dy, wvert[w]):  # the normal turns as p moves across
-                _rank1(hess, smat, m, k, px, py, nodes, -ny, nx, p, ccx, ccy, qx, qy, kappa * b1 / dist)
+                _rank1(hjp, hpp, smat, k, px, py, nodes, -ny, nx, p, ccx, ccy, qx, qy, kappa * b1 / dist)
             elif p >= 0:
                 # a robot node against the side of a piece's segment: the line turns with the piece,
                 # D = R(theta) n0 . (x - c - u)
-                o = m + 3 * p
-                hess[o, o + 2] -= fmag * ny
-                hess[o + 2, o] -= fmag * ny
-                hess[o + 1, o + 2] += fmag * nx
-                hess[o + 2, o + 1] += fmag * nx
-                hess[o + 2, o + 2] += fmag * (nx * (px - ccx) + ny * (py - ccy))
+                d = hpp[p]
+                d[0, 2] -= fmag * ny
+                d[2, 0] -= fmag * ny
+                d[1, 2] += fmag * nx
+                d[2, 1] += fmag * nx
+                d[2, 2] += fmag * (nx * (px - ccx) + ny * (py - ccy))
                 for j in range(k + 1):
-                    hj = -fmag * (nx * (px - nodes[j, 0]) + ny * (py - nodes[j, 1]))
-                    hess[j, o + 2] += hj
-                    hess[o + 2, j] += hj
+                    hjp[j, 3 * p + 2] += -fmag * (nx * (px - nodes[j, 0]) + ny * (py - nodes[j, 1]))
     for c in range(fr_k.shape[0]):
         k, s, xr, yr, xw, yw, ut = _slip(c, nodes, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_xr0, fr_xw0, wpiece, pc0, u)
         w = fr_w[c]
@@ -533,7 +527,7 @@ def _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0,
         p = wpiece[w]
         ccx, ccy = _apply_force(m, k, s, xr, yr, xw, yw, ff * tx, ff * ty, p, pc0, u, ex, ey, acc_f, acc_m, acc_fx, tip, grad)
         if want_hess:
-            _rank1(hess, smat, m, k, xr, yr, nodes, tx, ty, p, ccx, ccy, xw, yw, fr_mulam[c] * df1)
+            _rank1(hjp, hpp, smat, k, xr, yr, nodes, tx, ty, p, ccx, ccy, xw, yw, fr_mulam[c] * df1)
     return acc_f, acc_m, acc_fx, tip
 
 
@@ -549,8 +543,8 @@ def segment_forces(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wra
     near = pair_rows(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, cand, dhat, 0.0)
     pairs = _rows_to_pairs(near)
     acc_f, acc_m, _, tip = _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, pairs, fr_k, fr_s, fr_w, fr_wl, fr_t,
-                                          fr_mulam, fr_xr0, fr_xw0, dhat, kappa, eps_v, grad, np.zeros((1, 1)), np.zeros((m, 3, 3)),
-                                          np.zeros(m), np.zeros((m, 2)), False)
+                                          fr_mulam, fr_xr0, fr_xw0, dhat, kappa, eps_v, grad, np.zeros((1, 1)), np.zeros((1, 3, 3)),
+                                          np.zeros((m, 3, 3)), np.zeros(m), np.zeros((m, 2)), False)
     # the tip segment's clearance among the candidates (inf if none)
     tip_rows = pair_rows(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, cand, dhat, 1.0)
     for i in range(tip_rows.shape[0]):
@@ -572,14 +566,18 @@ def joint_moments(phi, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual):
 def grad_hess(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
               wa, wb, wpiece, wvert, wrad, pc0, u, pairs, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0, fr_xw0,
               dhat, kappa, eps_v, want_hess):
-    """Gradient (n,) and Hessian (n, n) of :func:`energy` over ``z = [phi, u.ravel()]``; the
-    Hessian drops the distance's own curvature (Gauss-Newton on the normal) but keeps the
-    chain's geometric stiffness under every contact and friction force."""
+    """Gradient (n,) and Hessian of :func:`energy` over ``z = [phi, u.ravel()]`` in blocks: joints
+    ``hess`` (m, m), joints-pieces ``hjp`` (m, 3 npc) and each piece's own ``hpp`` (npc, 3, 3) (the
+    pieces are independent springs: no piece-piece coupling); the Hessian drops the distance's own
+    curvature (Gauss-Newton on the normal) but keeps the chain's geometric stiffness under every
+    contact and friction force."""
     m = phi.shape[0]
     npc = u.shape[0]
     n = m + 3 * npc
     grad = np.zeros(n)
-    hess = np.zeros((n, n)) if want_hess else np.zeros((1, 1))
+    hess = np.zeros((m, m)) if want_hess else np.zeros((1, 1))
+    hjp = np.zeros((m, 3 * npc)) if want_hess else np.zeros((1, 1))
+    hpp = np.zeros((npc, 3, 3)) if want_hess else np.zeros((1, 3, 3))
     for j in range(m):
         _, mj, dmj = joint_law(phi[j], k_j[j], mw_j[j], law_u, law_h, law_hi, law_slope, residual)
         grad[j] += mj
@@ -590,7 +588,7 @@ def grad_hess(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi
     va = np.zeros(m)
     vf = np.zeros((m, 2))
     acc_f, acc_m, acc_fx, _ = _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, pairs, fr_k, fr_s, fr_w, fr_wl, fr_t,
-                                             fr_mulam, fr_xr0, fr_xw0, dhat, kappa, eps_v, grad, hess, smat, va, vf, want_hess)
+                                             fr_mulam, fr_xr0, fr_xw0, dhat, kappa, eps_v, grad, hjp, hpp, smat, va, vf, want_hess)
     # generalised forces of the contact and friction forces on the joints: suffix sums
     sfx = 0.0
     sfy = 0.0
@@ -634,7 +632,7 @@ def grad_hess(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi
                 for j in range(3):
                     grad[o + i] += kaa[p, i, j] * u[p, j]
                     if want_hess:
-                        hess[o + i, o + j] += kaa[p, i, j]
+                        hpp[p, i, j] += kaa[p, i, j]
         for p in range(npc):
             r = math.sqrt(u[p, 0] ** 2 + u[p, 1] ** 2)
             if r > travel[p]:
@@ -645,11 +643,11 @@ def grad_hess(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi
                 grad[o] += f * ex
                 grad[o + 1] += f * ey
                 if want_hess:
-                    hess[o, o] += k_travel[p] * ex * ex + f / r * (1 - ex * ex)
-                    hess[o, o + 1] += k_travel[p] * ex * ey - f / r * ex * ey
-                    hess[o + 1, o] += k_travel[p] * ex * ey - f / r * ex * ey
-                    hess[o + 1, o + 1] += k_travel[p] * ey * ey + f / r * (1 - ey * ey)
-    return grad, hess
+                    hpp[p, 0, 0] += k_travel[p] * ex * ex + f / r * (1 - ex * ex)
+                    hpp[p, 0, 1] += k_travel[p] * ex * ey - f / r * ex * ey
+                    hpp[p, 1, 0] += k_travel[p] * ex * ey - f / r * ex * ey
+                    hpp[p, 1, 1] += k_travel[p] * ey * ey + f / r * (1 - ey * ey)
+    return grad, hess, hjp, hpp
 
 
 @nb.njit(cache=True, nogil=True)
@@ -726,24 +724,34 @@ def _inv3_spd(d):
 
 
 @nb.njit(cache=True, nogil=True)
-def _schur_solve(hess, rhs, m, npc, mu0):
-    """Solve ``(H + mu I) x = rhs`` where the wall pieces' block of ``H`` is block diagonal (each
-    piece an independent spring): the pieces are eliminated (Schur complement on the joints), so
-    the cost grows with the joints, not the pieces.  The shift ``mu`` is the smallest (``mu0``,
-    then growing tenfold) that makes every factor positive definite; returns ``(x, mu)``, ``mu < 0``
-    if none did."""
+def _diag_max(hess, hpp):
+    """Largest absolute diagonal term of the Hessian (its joint block ``hess``, its pieces' ``hpp``)."""
+    out = 0.0
+    for i in range(hess.shape[0]):
+        out = max(out, abs(hess[i, i]))
+    for p in range(hpp.shape[0]):
+        for i in range(3):
+            out = max(out, abs(hpp[p, i, i]))
+    return out
+
+
+@nb.njit(cache=True, nogil=True)
+def _schur_solve(hess, hjp, hpp, rhs, m, npc, mu0):
+    """Solve ``(H + mu I) x = rhs`` for the Hessian in :func:`grad_hess`'s blocks (``hess``, ``hjp``,
+    ``hpp``; the wall pieces' block is block diagonal, each piece an independent spring): the pieces
+    are eliminated (Schur complement on the joints), so the cost grows with the joints, not the pieces.
+    The shift ``mu`` is the smallest (``mu0``, then growing tenfold) that makes every factor positive
+    definite; returns ``(x, mu)``, ``mu < 0`` if none did."""
     if npc == 0:
         return _cholesky_solve(hess, rhs, mu0)
-    n = hess.shape[0]
-    diag_max = 0.0
-    for i in range(n):
-        diag_max = max(diag_max, abs(hess[i, i]))
+    n = m + 3 * npc
+    diag_max = _diag_max(hess, hpp)
     coupled = np.zeros(npc, np.bool_)  # pieces a contact couples to the joints
     nc = 0
     for p in range(npc):
-        o = m + 3 * p
+        o = 3 * p
         for i in range(m):
-            if hess[i, o] != 0.0 or hess[i, o + 1] != 0.0 or hess[i, o + 2] != 0.0:
+            if hjp[i, o] != 0.0 or hjp[i, o + 1] != 0.0 or hjp[i, o + 2] != 0.0:
                 coupled[p] = True
                 nc += 1
                 break
@@ -755,7 +763,7 @@ def _schur_solve(hess, rhs, m, npc, mu0):
             cols[c] = p
             for i in range(m):
                 for j in range(3):
-                    b[i, 3 * c + j] = hess[i, m + 3 * p + j]
+                    b[i, 3 * c + j] = hjp[i, 3 * p + j]
             c += 1
     mu = mu0
     d = np.empty((3, 3))
@@ -765,10 +773,9 @@ def _schur_solve(hess, rhs, m, npc, mu0):
         ok = True
         dinv = np.empty((npc, 3, 3))
         for p in range(npc):
-            o = m + 3 * p
             for i in range(3):
                 for j in range(3):
-                    d[i, j] = hess[o + i, o + j]
+                    d[i, j] = hpp[p, i, j]
                 d[i, i] += mu
             inv, good = _inv3_spd(d)
             if not good:
@@ -783,7 +790,7 @@ def _schur_solve(hess, rhs, m, npc, mu0):
                     rc[3 * c + j] = rhs[m + 3 * p + j]
                     for i in range(m):
                         bd[i, 3 * c + j] = b[i, 3 * c] * dinv[p, 0, j] + b[i, 3 * c + 1] * dinv[p, 1, j] + b[i, 3 * c + 2] * dinv[p, 2, j]
-            schur = hess[:m, :m] - bd @ np.ascontiguousarray(b.T) if nc else hess[:m, :m].copy()
+            schur = hess - bd @ np.ascontiguousarray(b.T) if nc else hess.copy()
             r = rhs[:m] - bd @ rc if nc else rhs[:m].copy()
             for i in range(m):
                 schur[i, i] += mu
@@ -901,7 +908,7 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
     shift = 0.0  # the last Levenberg shift, warm start of the next (a tenth of it)
     damp = 0.0  # Levenberg-Marquardt damping: grows while steps are cut short, shrinks when they are taken whole
     for it in range(max_iter + 1):
-        grad, hess = grad_hess(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
+        grad, hess, hjp, hpp = grad_hess(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
                                wa, wb, wpiece, wvert, wrad, pc0, u, near, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam,
                                fr_xr0, fr_xw0, dhat, kappa, eps_v, True)
         res_m = 0.0
@@ -915,7 +922,7 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
             return CONVERGED, it, res_m, res_f
         if it == max_iter:
             break
-        step, shift = _schur_solve(hess, -grad, m, npc, max(0.1 * shift, damp))
+        step, shift = _schur_solve(hess, hjp, hpp, -grad, m, npc, max(0.1 * shift, damp))
         if shift < 0:
             return LINE_SEARCH_FAILED, it, res_m, res_f
         # limit the step: no joint turns by more than 0.5 rad, no node moves more than max_move
@@ -962,10 +969,7 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
         # an indefinite model (a kink's plateau under compression) gives long steps that the line search
         # cuts: damp the next step instead (a trust region in Levenberg-Marquardt's form)
         if alpha < 0.1 * scale:
-            dmax = 0.0
-            for i in range(n):
-                dmax = max(dmax, abs(hess[i, i]))
-            damp = max(10.0 * max(damp, shift), 1e-6 * dmax)
+            damp = max(10.0 * max(damp, shift), 1e-6 * _diag_max(hess, hpp))
         elif alpha >= 0.5 * scale:
             damp *= 0.1
         phi[:] = trial_phi
