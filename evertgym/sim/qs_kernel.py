@@ -605,21 +605,30 @@ def grad_hess(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi
         gsum[j] = sfp - (nodes[j, 0] * sfx + nodes[j, 1] * sfy)
     if want_hess:
         for k in range(m - 2, -1, -1):  # suffix sums: the contacts on segments >= k
-            smat[k] += smat[k + 1]
+            for r in range(3):
+                for c in range(3):
+                    smat[k, r, c] += smat[k + 1, r, c]
             va[k] += va[k + 1]
             vf[k, 0] += vf[k + 1, 0]
             vf[k, 1] += vf[k + 1, 1]
+        # H_ij (j >= i) = w_i^T smat[j] w_j + gsum_j + va_j + vf_j . n_i with w = (1, -n_x, n_y): the
+        # parts that depend on j alone first
+        cj = np.empty((m, 4))
+        for j in range(m):
+            wj1 = -nodes[j, 0]
+            wj2 = nodes[j, 1]
+            cj[j, 0] = smat[j, 0, 0] + smat[j, 0, 1] * wj1 + smat[j, 0, 2] * wj2
+            cj[j, 1] = smat[j, 1, 0] + smat[j, 1, 1] * wj1 + smat[j, 1, 2] * wj2
+            cj[j, 2] = smat[j, 2, 0] + smat[j, 2, 1] * wj1 + smat[j, 2, 2] * wj2
+            cj[j, 3] = gsum[j] + va[j]
         for i in range(m):
             wi1 = -nodes[i, 0]
             wi2 = nodes[i, 1]
+            ni0 = nodes[i, 0]
+            ni1 = nodes[i, 1]
             for j in range(i, m):  # max(i, j) = j
-                wj1 = -nodes[j, 0]
-                wj2 = nodes[j, 1]
-                sm_ = smat[j]
-                val = (sm_[0, 0] + sm_[0, 1] * wj1 + sm_[0, 2] * wj2
-                       + wi1 * (sm_[1, 0] + sm_[1, 1] * wj1 + sm_[1, 2] * wj2)
-                       + wi2 * (sm_[2, 0] + sm_[2, 1] * wj1 + sm_[2, 2] * wj2))
-                val += gsum[j] + va[j] + vf[j, 0] * nodes[i, 0] + vf[j, 1] * nodes[i, 1]
+                val = cj[j, 0] + wi1 * cj[j, 1] + wi2 * cj[j, 2]
+                val += cj[j, 3] + vf[j, 0] * ni0 + vf[j, 1] * ni1
                 hess[i, j] += val
                 if j != i:
                     hess[j, i] += val
