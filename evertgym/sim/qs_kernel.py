@@ -304,12 +304,6 @@ def pair_rows(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc
 
 
 @nb.njit(cache=True, nogil=True)
-def _pair_list(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, dhat, margin):
-    """``(k, w)`` of every robot-wall pair within ``dhat + margin`` (the candidates of a solve)."""
-    return _rows_to_pairs(contacts(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, dhat, margin))
-
-
-@nb.njit(cache=True, nogil=True)
 def _rows_to_pairs(rows):
     out = np.empty((rows.shape[0], 2), np.int64)
     for i in range(rows.shape[0]):
@@ -532,24 +526,23 @@ def _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0,
 
 
 @nb.njit(cache=True, nogil=True)
-def segment_forces(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, cand, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0,
+def segment_forces(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, wide, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0,
                    fr_xw0, dhat, kappa, eps_v):
     """The wall forces on the window at ``phi``: per segment the force (N, m x 2) and its moment
     about the origin (N m, m); and ``(F_tip, fx, fy, gap)``: the reaction against growth and the
-    total force on the tip segment (N), and the tip segment's smallest gap to a candidate wall (m)."""
+    total force on the tip segment (N), and the tip segment's smallest gap to a candidate wall (m).
+    ``wide``: the candidates' contact rows (:func:`pair_rows`) at ``phi`` with a gap below ``dhat + 1`` m."""
     nodes, _ = chain_nodes(theta0, n0, phi, seg_len)
     m = phi.shape[0]
     grad = np.zeros(m + 3 * u.shape[0])
-    near = pair_rows(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, cand, dhat, 0.0)
-    pairs = _rows_to_pairs(near)
+    pairs = _rows_below(wide, dhat)
     acc_f, acc_m, _, tip = _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, pairs, fr_k, fr_s, fr_w, fr_wl, fr_t,
                                           fr_mulam, fr_xr0, fr_xw0, dhat, kappa, eps_v, grad, np.zeros((1, 1)), np.zeros((1, 3, 3)),
                                           np.zeros((m, 3, 3)), np.zeros(m), np.zeros((m, 2)), False)
     # the tip segment's clearance among the candidates (inf if none)
-    tip_rows = pair_rows(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, cand, dhat, 1.0)
-    for i in range(tip_rows.shape[0]):
-        if int(tip_rows[i, 0]) == m - 1:
-            tip[3] = min(tip[3], tip_rows[i, 10])
+    for i in range(wide.shape[0]):
+        if int(wide[i, 0]) == m - 1:
+            tip[3] = min(tip[3], wide[i, 10])
     return acc_f, acc_m, tip
 
 
@@ -851,6 +844,22 @@ def _moved(nodes, ref_nodes, u, ref_u, rho):
 
 
 @nb.njit(cache=True, nogil=True)
+def _rows_where(rows, reach):
+    """The contact rows (:func:`pair_rows`) with a gap below ``reach`` (m), in order."""
+    cnt = 0
+    for i in range(rows.shape[0]):
+        if rows[i, 10] < reach:
+            cnt += 1
+    out = np.empty((cnt, rows.shape[1]))
+    cnt = 0
+    for i in range(rows.shape[0]):
+        if rows[i, 10] < reach:
+            out[cnt] = rows[i]
+            cnt += 1
+    return out
+
+
+@nb.njit(cache=True, nogil=True)
 def _rows_below(rows, reach):
     """``(k, w)`` of the contact rows (:func:`pair_rows`) with a gap below ``reach`` (m), in order."""
     cnt = 0
@@ -888,8 +897,10 @@ def _near_pairs(nodes, pairs, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, reac
 @nb.njit(cache=True, nogil=True)
 def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
           wa, wb, wpiece, wvert, wrad, pc0, u, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0, fr_xw0,
-          dhat, kappa, eps_v, tol_m, tol_f, max_iter, max_move, cand):
-    """Newton's method on :func:`energy` from ``(phi, u)`` (updated in place).
+          dhat, kappa, eps_v, tol_m, tol_f, max_iter, max_move, cand, rows0):
+    """Newton's method on :func:`energy` from ``(phi, u)`` (updated in place); ``cand`` the candidate
+    pairs, ``rows0`` their contact rows (:func:`pair_rows`) at the start, at least those within
+    ``dhat + 2 max_move``.
 
     Returns ``(status, iterations, residual_m, residual_f)``: the largest unbalanced joint
     moment (N m) and wall-piece force (N) at the end; ``status`` is :data:`CONVERGED` when they
@@ -897,7 +908,7 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
     m = phi.shape[0]
     npc = u.shape[0]
     n = m + 3 * npc
-    rows = pair_rows(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, cand, dhat, 2.0 * max_move)
+    rows = _rows_where(rows0, dhat + 2.0 * max_move)
     pairs = _rows_to_pairs(rows)
     anchor, _ = chain_nodes(theta0, n0, phi, seg_len)
     anchor_u = u.copy()
@@ -1108,7 +1119,9 @@ def solve_increment(theta0, n0, phi, phi_ref, seg_len, seg_rad, s_nodes, k_j, mw
     start_nodes, _ = chain_nodes(theta0, n0, phi_ref, seg_len)
     u0 = u.copy()
     reach = 2.0 * max_move + dhat  # candidates for every pair a solve can reach; re-listed if the body moves further
-    cand = _pair_list(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, dhat, reach)
+    wide = contacts(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, dhat, reach)  # their rows now
+    cand = _rows_to_pairs(wide)
+    wide_now = False  # whether ``wide`` holds every candidate within dhat + 1 m (segment_forces' rows)
     anchor = start_nodes.copy()
     anchor_u = u.copy()
     iters = 0
@@ -1120,7 +1133,7 @@ def solve_increment(theta0, n0, phi, phi_ref, seg_len, seg_rad, s_nodes, k_j, mw
         fr_k, fr_s, fr_xr0, fr_xw0 = _friction_inputs(e_s, e_w, e_wl, start_nodes, s_nodes, seg_len, wpiece, pc0, u0)
         status, it, res_m, res_f = solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
                                          wa, wb, wpiece, wvert, wrad, pc0, u, kaa, fh, travel, k_travel, fr_k, fr_s, e_w, e_wl, e_t,
-                                         e_ml, fr_xr0, fr_xw0, dhat, kappa, eps_v, tol_m, tol_f, max_iter, max_move, cand)
+                                         e_ml, fr_xr0, fr_xw0, dhat, kappa, eps_v, tol_m, tol_f, max_iter, max_move, cand, wide)
         iters += it
         if status == INFEASIBLE_START:
             break
@@ -1132,17 +1145,21 @@ def solve_increment(theta0, n0, phi, phi_ref, seg_len, seg_rad, s_nodes, k_j, mw
             drift = max(drift, math.sqrt((u[p, 0] - anchor_u[p, 0]) ** 2 + (u[p, 1] - anchor_u[p, 1]) ** 2)
                         + 0.05 * abs(u[p, 2] - anchor_u[p, 2]))
         if drift > 0.5 * reach:
-            cand = _pair_list(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, dhat, reach)
+            cand = _rows_to_pairs(contacts(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, dhat, reach))
             anchor = now
             anchor_u = u.copy()
-        rows = pair_rows(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, cand, dhat, 0.0)
+        wide = pair_rows(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, cand, dhat, 1.0)
+        wide_now = True
+        rows = _rows_where(wide, dhat)
         n_s, n_w, n_wl, n_t, n_ml = _entries(rows, s_nodes, seg_len, robot_mu, wall_mu, wpiece, pc0, u, dhat, kappa)
         done = _same_entries(e_s, e_w, e_ml, n_s, n_w, n_ml, tol_f)
         e_s, e_w, e_wl, e_t, e_ml = n_s, n_w, n_wl, n_t, n_ml
         if done or lag == lag_iterations:
             break
     fr_k, fr_s, fr_xr0, fr_xw0 = _friction_inputs(e_s, e_w, e_wl, start_nodes, s_nodes, seg_len, wpiece, pc0, u0)
-    acc_f, acc_m, tip = segment_forces(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, cand, fr_k, fr_s, e_w, e_wl,
+    if not wide_now:
+        wide = pair_rows(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, cand, dhat, 1.0)
+    acc_f, acc_m, tip = segment_forces(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, wide, fr_k, fr_s, e_w, e_wl,
                                        e_t, e_ml, fr_xr0, fr_xw0, dhat, kappa, eps_v)
     return status, iters, res_m, res_f, e_s, e_w, e_wl, e_t, e_ml, acc_f, acc_m, tip, rows
 
