@@ -1172,15 +1172,15 @@ def _segment_box(nodes, k, grow):
 
 
 @nb.njit(cache=True, nogil=True)
-def overlaps(theta0, n0, phi, seg_len, seg_rad, box_lo, box_hi, wa, wb, wpiece, wvert, wrad, pc0, u):
+def overlaps(theta0, n0, phi, seg_len, seg_rad, feats, box_lo, box_hi, wa, wb, wpiece, wvert, wrad, pc0, u):
     """Whether the window ``phi`` overlaps a wall: a robot-wall pair (:func:`_pair`) with a gap at
-    or below zero, among the features whose boxes (``box_lo``, ``box_hi``) meet a segment's.  The
+    or below zero, among the features ``feats`` whose boxes (``box_lo``, ``box_hi``) meet a segment's.  The
     same test that makes :func:`solve` return :data:`INFEASIBLE_START`, without a solve's setup
     (a growth increment that would overlap is refused before it is assembled)."""
     nodes, _ = chain_nodes(theta0, n0, phi, seg_len)
     for k in range(phi.shape[0] - 1, -1, -1):  # from the tip, where an overlap is likeliest
         lx, hx, ly, hy = _segment_box(nodes, k, seg_rad[k])
-        for w in range(box_lo.shape[0]):
+        for w in feats:
             if box_hi[w, 0] < lx or box_lo[w, 0] > hx or box_hi[w, 1] < ly or box_lo[w, 1] > hy:
                 continue
             gap = _pair_at(nodes, k, w, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u)[10]

@@ -206,6 +206,7 @@ class QuasiStaticSim(GrowingTube):
         self._pc0 = np.array([tuple(b.position) for b in self._piece_bodies], float).reshape(-1, 2)
         self._u_all = np.zeros((n_p, 3))
         self._u_shown = np.zeros((n_p, 3))  # the displacements the pymunk bodies show
+        self._u_solved = np.zeros((n_p, 3))  # the displacements of the last solve
         # each piece an independent spring that translates: the inverse of its own 2 x 2 translational
         # compliance (its point stiffness with its neighbours and its own rotation free to follow;
         # the coupling between pieces is dropped); its rotation is held (a stiff spring)
@@ -266,6 +267,7 @@ class QuasiStaticSim(GrowingTube):
         self._apply_pressure(0.0)
         self._solve()
         self._publish()
+        self._show_pieces()
 
     # ---- construction -----------------------------------------------------------
     def _start_chain(self, length: float) -> None:
@@ -408,6 +410,16 @@ class QuasiStaticSim(GrowingTube):
             f_max = max(f_max, self._tip_force_norm)
         self._step_mean_pressure = p_sum / n_steps if n_steps > 0 else self.pressure
         self._step_max_contact = f_max
+        self._show_pieces()
+
+    def _show_pieces(self) -> None:
+        """The scene's pymunk pieces (those that moved) take the displacements of the last solve
+        (nothing reads them during a step: once per step, not once per solve)."""
+        for i in np.nonzero(np.any(self._u_solved != self._u_shown, axis=1))[0]:
+            pc, uu = self._pc0[i], self._u_solved[i]
+            self._piece_bodies[i].position = (pc[0] + uu[0], pc[1] + uu[1])
+            self._piece_bodies[i].angle = float(uu[2])
+        self._u_shown[:] = self._u_solved
 
     def _increment(self) -> float:
         """Growth increment (m): ``growth_increment_m`` near a wall, up to a segment in free space
@@ -663,13 +675,13 @@ class QuasiStaticSim(GrowingTube):
         m = len(phi)
         phi_ref = phi.copy()
         walls = self._walls
-        if qk.overlaps(theta0, n0, phi, seg_len, seg_rad, *self._feature_boxes, walls.a, walls.b, walls.piece, walls.vertex,
-                       walls.radius, self._pc0, self._u_all):
+        sel = qk.select_features(nodes[a:], seg_rad, *self._feature_boxes, cfg.barrier_gap_m + _QUERY_MARGIN_M)
+        if qk.overlaps(theta0, n0, phi, seg_len, seg_rad, sel, *self._feature_boxes, walls.a, walls.b, walls.piece, walls.vertex,
+                       walls.radius, self._pc0, self._u_all):  # the features an overlap can involve are all in sel
             return False
         s_nodes = np.append(self.nodes[a : a + m], self.length)
         k_j = np.ascontiguousarray(self._k_all[a : a + m])
         mw_j = np.ascontiguousarray(self._mw_all[a : a + m])
-        sel = qk.select_features(nodes[a:], seg_rad, *self._feature_boxes, cfg.barrier_gap_m + _QUERY_MARGIN_M)
         wpiece_g = walls.piece[sel]
         # the wall pieces the robot is about to touch are unknowns (independent springs); the other
         # pieces' features are walls held where they are for this solve
@@ -693,7 +705,9 @@ class QuasiStaticSim(GrowingTube):
                     loc = arr[moving].copy()
                     arr[moving, 0] = o[:, 0] + c * loc[:, 0] - sn * loc[:, 1]
                     arr[moving, 1] = o[:, 1] + sn * loc[:, 0] + c * loc[:, 1]
-            solved = np.isin(wpiece_g, pieces)
+            by_piece = np.zeros(len(self._piece_bodies) + 1, np.bool_)  # the last entry: static walls (-1)
+            by_piece[pieces] = True
+            solved = by_piece[wpiece_g]
             wa[solved], wb[solved] = walls.a[sel][solved], walls.b[sel][solved]  # in the piece's frame
         local = np.full(len(self._piece_bodies) + 1, -1, np.int64)
         local[pieces] = np.arange(len(pieces))
@@ -737,12 +751,8 @@ class QuasiStaticSim(GrowingTube):
         # the solved pieces take their equilibrium (at rest if nothing pushes them); the others stay
         # where the held body holds them (putting them back at rest would push them into it)
         self._u_all[pieces] = u
-        if len(self._piece_bodies):  # the scene's pymunk pieces follow (those that moved)
-            for i in np.nonzero(np.any(self._u_all != self._u_shown, axis=1))[0]:
-                pc, uu = self._pc0[i], self._u_all[i]
-                self._piece_bodies[i].position = (pc[0] + uu[0], pc[1] + uu[1])
-                self._piece_bodies[i].angle = float(uu[2])
-            self._u_shown[:] = self._u_all
+        if len(self._piece_bodies):  # what the scene's pymunk pieces show after the step (_show_pieces)
+            self._u_solved = self._u_all.copy()
         keep = ~in_window
         self._fric = {"s": np.concatenate([fric["s"][keep], e_s]), "wall": np.concatenate([fric["wall"][keep], sel[e_w]]),
                       "wl": np.concatenate([fric["wl"][keep], e_wl]), "t": np.concatenate([fric["t"][keep], e_t]),
