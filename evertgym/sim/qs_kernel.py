@@ -702,17 +702,17 @@ def _substitute(low, rhs):
 
 
 @nb.njit(cache=True, nogil=True)
-def _inv3_spd(d):
-    """Inverse of a symmetric 3 x 3 matrix and whether it is positive definite (leading minors)."""
+def _inv3_spd(d, out):
+    """The inverse of a symmetric 3 x 3 matrix into ``out``; whether it is positive definite (leading
+    minors; ``out`` is left unset if not)."""
     m1 = d[0, 0]
     m2 = d[0, 0] * d[1, 1] - d[0, 1] * d[1, 0]
     c00 = d[1, 1] * d[2, 2] - d[1, 2] * d[2, 1]
     c01 = d[1, 2] * d[2, 0] - d[1, 0] * d[2, 2]
     c02 = d[1, 0] * d[2, 1] - d[1, 1] * d[2, 0]
     det = d[0, 0] * c00 + d[0, 1] * c01 + d[0, 2] * c02
-    out = np.empty((3, 3))
     if not (m1 > 0.0 and m2 > 0.0 and det > 0.0):
-        return out, False
+        return False
     out[0, 0] = c00 / det
     out[1, 0] = c01 / det
     out[2, 0] = c02 / det
@@ -722,7 +722,7 @@ def _inv3_spd(d):
     out[0, 2] = (d[0, 1] * d[1, 2] - d[0, 2] * d[1, 1]) / det
     out[1, 2] = (d[0, 2] * d[1, 0] - d[0, 0] * d[1, 2]) / det
     out[2, 2] = m2 / det
-    return out, True
+    return True
 
 
 @nb.njit(cache=True, nogil=True)
@@ -767,23 +767,22 @@ def _schur_solve(hess, hjp, hpp, rhs, m, npc, mu0):
                 for j in range(3):
                     b[i, 3 * c + j] = hjp[i, 3 * p + j]
             c += 1
+    bt = np.ascontiguousarray(b.T)
     mu = mu0
     d = np.empty((3, 3))
     bd = np.empty((m, 3 * nc))
     rc = np.empty(3 * nc)
+    dinv = np.empty((npc, 3, 3))
     for _ in range(40):
         ok = True
-        dinv = np.empty((npc, 3, 3))
         for p in range(npc):
             for i in range(3):
                 for j in range(3):
                     d[i, j] = hpp[p, i, j]
                 d[i, i] += mu
-            inv, good = _inv3_spd(d)
-            if not good:
+            if not _inv3_spd(d, dinv[p]):
                 ok = False
                 break
-            dinv[p] = inv
         if ok:
             # Schur complement S = H_jj + mu I - B D^-1 B^T, r = rhs_j - B D^-1 rhs_p
             for c in range(nc):
@@ -792,7 +791,7 @@ def _schur_solve(hess, hjp, hpp, rhs, m, npc, mu0):
                     rc[3 * c + j] = rhs[m + 3 * p + j]
                     for i in range(m):
                         bd[i, 3 * c + j] = b[i, 3 * c] * dinv[p, 0, j] + b[i, 3 * c + 1] * dinv[p, 1, j] + b[i, 3 * c + 2] * dinv[p, 2, j]
-            schur = hess - bd @ np.ascontiguousarray(b.T) if nc else hess.copy()
+            schur = hess - bd @ bt if nc else hess.copy()
             r = rhs[:m] - bd @ rc if nc else rhs[:m].copy()
             for i in range(m):
                 schur[i, i] += mu
@@ -801,7 +800,7 @@ def _schur_solve(hess, hjp, hpp, rhs, m, npc, mu0):
                 xs = _substitute(low, r)
                 x = np.empty(n)
                 x[:m] = xs
-                btx = np.ascontiguousarray(b.T) @ xs if nc else np.zeros(0)
+                btx = bt @ xs if nc else np.zeros(0)
                 c = 0
                 for p in range(npc):  # x_p = D_p^-1 (rhs_p - B_p^T x_joints)
                     o = m + 3 * p
