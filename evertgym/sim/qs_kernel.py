@@ -40,7 +40,8 @@ INFEASIBLE_START = 3
 _NEAR_MARGIN_M = 1e-3
 #: Allowance (m) for rounding in the bound on a gap's change.
 _NEAR_SLACK_M = 1e-9
-#: Segments per block in the candidate search of :func:`contacts` (a block's circle is tested first).
+#: Segments per block in the candidate search of :func:`contacts` (a block's circle is tested first) and
+#: in the box tests of :func:`overlaps` and :func:`select_features` (a block's box first).
 _BLOCK = 8
 
 
@@ -1177,15 +1178,40 @@ def overlaps(theta0, n0, phi, seg_len, seg_rad, feats, box_lo, box_hi, wa, wb, w
     same test that makes :func:`solve` return :data:`INFEASIBLE_START`, without a solve's setup
     (a growth increment that would overlap is refused before it is assembled)."""
     nodes, _ = chain_nodes(theta0, n0, phi, seg_len)
-    for k in range(phi.shape[0] - 1, -1, -1):  # from the tip, where an overlap is likeliest
-        lx, hx, ly, hy = _segment_box(nodes, k, seg_rad[k])
-        for w in feats:
-            if box_hi[w, 0] < lx or box_lo[w, 0] > hx or box_hi[w, 1] < ly or box_lo[w, 1] > hy:
+    m = phi.shape[0]
+    blocks = _block_boxes(nodes, seg_rad)
+    for w in feats:
+        for b in range(blocks.shape[0] - 1, -1, -1):  # from the tip, where an overlap is likeliest
+            if box_hi[w, 0] < blocks[b, 0] or box_lo[w, 0] > blocks[b, 1] or box_hi[w, 1] < blocks[b, 2] or box_lo[w, 1] > blocks[b, 3]:
                 continue
-            gap = _pair_at(nodes, k, w, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u)[10]
-            if gap <= 0.0:
-                return True
+            for k in range(min(m, (b + 1) * _BLOCK) - 1, b * _BLOCK - 1, -1):
+                lx, hx, ly, hy = _segment_box(nodes, k, seg_rad[k])
+                if box_hi[w, 0] < lx or box_lo[w, 0] > hx or box_hi[w, 1] < ly or box_lo[w, 1] > hy:
+                    continue
+                if _pair_at(nodes, k, w, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u)[10] <= 0.0:
+                    return True
     return False
+
+
+@nb.njit(cache=True, nogil=True)
+def _block_boxes(nodes, grow):
+    """Per block of :data:`_BLOCK` segments of the chain ``nodes``: the box ``(lx, hx, ly, hy)``
+    around its segments' boxes (:func:`_segment_box`, segment ``k``'s grown by ``grow[k]``); a box
+    that misses a block's misses each of its segments'."""
+    m = grow.shape[0]
+    out = np.empty(((m + _BLOCK - 1) // _BLOCK, 4))
+    for b in range(out.shape[0]):
+        out[b, 0] = np.inf
+        out[b, 1] = -np.inf
+        out[b, 2] = np.inf
+        out[b, 3] = -np.inf
+        for k in range(b * _BLOCK, min(m, (b + 1) * _BLOCK)):
+            lx, hx, ly, hy = _segment_box(nodes, k, grow[k])
+            out[b, 0] = min(out[b, 0], lx)
+            out[b, 1] = max(out[b, 1], hx)
+            out[b, 2] = min(out[b, 2], ly)
+            out[b, 3] = max(out[b, 3], hy)
+    return out
 
 
 @nb.njit(cache=True, nogil=True)
@@ -1207,7 +1233,8 @@ def touching(nodes, seg_rad, box_lo, box_hi, wa, wb, wpiece, wvert, wrad, pc0, u
 @nb.njit(cache=True, nogil=True)
 def select_features(nodes, seg_rad, box_lo, box_hi, reach):
     """Indices of the wall features (boxes ``box_lo``, ``box_hi``) within ``reach`` (m) of a
-    segment's box (its nodes grown by its radius): the window's box first, then each segment's."""
+    segment's box (its nodes grown by its radius): the window's box first, then each block's of
+    :data:`_BLOCK` segments (:func:`_block_boxes`), then each segment's."""
     m = seg_rad.shape[0]
     g = reach
     for k in range(m):
@@ -1221,15 +1248,24 @@ def select_features(nodes, seg_rad, box_lo, box_hi, reach):
         whx = max(whx, nodes[k, 0])
         wly = min(wly, nodes[k, 1])
         why = max(why, nodes[k, 1])
+    blocks = _block_boxes(nodes, seg_rad + reach)
     out = np.empty(box_lo.shape[0], np.int64)
     cnt = 0
     for f in range(box_lo.shape[0]):
         if box_hi[f, 0] < wlx - g or box_lo[f, 0] > whx + g or box_hi[f, 1] < wly - g or box_lo[f, 1] > why + g:
             continue
-        for k in range(m):
-            lx, hx, ly, hy = _segment_box(nodes, k, seg_rad[k] + reach)
-            if box_hi[f, 0] >= lx and box_lo[f, 0] <= hx and box_hi[f, 1] >= ly and box_lo[f, 1] <= hy:
-                out[cnt] = f
-                cnt += 1
+        hit = False
+        for b in range(blocks.shape[0]):
+            if box_hi[f, 0] < blocks[b, 0] or box_lo[f, 0] > blocks[b, 1] or box_hi[f, 1] < blocks[b, 2] or box_lo[f, 1] > blocks[b, 3]:
+                continue
+            for k in range(b * _BLOCK, min(m, (b + 1) * _BLOCK)):
+                lx, hx, ly, hy = _segment_box(nodes, k, seg_rad[k] + reach)
+                if box_hi[f, 0] >= lx and box_lo[f, 0] <= hx and box_hi[f, 1] >= ly and box_lo[f, 1] <= hy:
+                    hit = True
+                    break
+            if hit:
                 break
+        if hit:
+            out[cnt] = f
+            cnt += 1
     return out[:cnt]
