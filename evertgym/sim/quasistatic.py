@@ -685,17 +685,20 @@ class QuasiStaticSim(GrowingTube):
         wpiece_g = walls.piece[sel]
         # the wall pieces the robot is about to touch are unknowns (independent springs); the other
         # pieces' features are walls held where they are for this solve
-        wa, wb = walls.a[sel].copy(), walls.b[sel].copy()
+        a_sel, b_sel = walls.a[sel], walls.b[sel]
+        wa, wb = a_sel.copy(), b_sel.copy()
         pieces = np.zeros(0, np.int64)
         if np.any(wpiece_g >= 0):
-            blo, bhi = self._feature_boxes
+            blo, bhi = self._feature_boxes[0][sel], self._feature_boxes[1][sel]
             close = np.zeros(len(sel), np.bool_)
-            close[qk.select_features(nodes[a:], seg_rad, blo[sel], bhi[sel], cfg.barrier_gap_m + _PIECE_MARGIN_M)] = True
-            pieces = np.unique(wpiece_g[(wpiece_g >= 0) & close])
-            if a > 0 and len(pieces):  # a piece the held body touches is held with it (else a solve could push it into the body)
-                held = qk.touching(nodes[: a + 1], self.seg_rad[:a], blo[sel], bhi[sel], walls.a[sel], walls.b[sel], wpiece_g,
+            close[qk.select_features(nodes[a:], seg_rad, blo, bhi, cfg.barrier_gap_m + _PIECE_MARGIN_M)] = True
+            unknown = np.zeros(len(self._piece_bodies), np.bool_)
+            unknown[wpiece_g[(wpiece_g >= 0) & close]] = True
+            if a > 0 and np.any(unknown):  # a piece the held body touches is held with it (else a solve could push it into the body)
+                held = qk.touching(nodes[: a + 1], self.seg_rad[:a], blo, bhi, a_sel, b_sel, wpiece_g,
                                    walls.vertex[sel], walls.radius[sel], self._pc0, self._u_all, cfg.barrier_gap_m + _PIECE_MARGIN_M)
-                pieces = np.setdiff1d(pieces, wpiece_g[(wpiece_g >= 0) & held])
+                unknown[wpiece_g[(wpiece_g >= 0) & held]] = False
+            pieces = np.nonzero(unknown)[0]
             moving = wpiece_g >= 0
             if np.any(moving):
                 q = self._u_all[wpiece_g[moving]]
@@ -708,7 +711,7 @@ class QuasiStaticSim(GrowingTube):
             by_piece = np.zeros(len(self._piece_bodies) + 1, np.bool_)  # the last entry: static walls (-1)
             by_piece[pieces] = True
             solved = by_piece[wpiece_g]
-            wa[solved], wb[solved] = walls.a[sel][solved], walls.b[sel][solved]  # in the piece's frame
+            wa[solved], wb[solved] = a_sel[solved], b_sel[solved]  # in the piece's frame
         local = np.full(len(self._piece_bodies) + 1, -1, np.int64)
         local[pieces] = np.arange(len(pieces))
         wpiece = np.where(wpiece_g >= 0, local[np.maximum(wpiece_g, 0)], -1)
