@@ -327,16 +327,16 @@ def _slip(c, nodes, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_xr0, fr_xw0, wpiece, pc0, 
 
 
 @nb.njit(cache=True, nogil=True)
-def energy(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
+def energy(nodes, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
            wa, wb, wpiece, wvert, wrad, pc0, u, pairs, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0, fr_xw0,
            dhat, kappa, eps_v):
-    """The incremental potential (J); ``inf`` where any robot-wall gap is not positive."""
+    """The incremental potential (J) at ``phi`` (its nodes ``nodes``, :func:`chain_nodes`); ``inf`` where
+    any robot-wall gap is not positive."""
     m = phi.shape[0]
     e = 0.0
     for j in range(m):
         w_, _, _ = joint_law(phi[j], k_j[j], mw_j[j], law_u, law_h, law_hi, law_slope, residual)
         e += w_
-    nodes, theta = chain_nodes(theta0, n0, phi, seg_len)
     for c in range(pairs.shape[0]):
         gap = _pair_at(nodes, pairs[c, 0], pairs[c, 1], seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u)[10]
         if gap <= 0.0:
@@ -557,14 +557,14 @@ def joint_moments(phi, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual):
 
 
 @nb.njit(cache=True, nogil=True)
-def grad_hess(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
+def grad_hess(nodes, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
               wa, wb, wpiece, wvert, wrad, pc0, u, pairs, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0, fr_xw0,
               dhat, kappa, eps_v, want_hess):
-    """Gradient (n,) and Hessian of :func:`energy` over ``z = [phi, u.ravel()]`` in blocks: joints
-    ``hess`` (m, m), joints-pieces ``hjp`` (m, 3 npc) and each piece's own ``hpp`` (npc, 3, 3) (the
-    pieces are independent springs: no piece-piece coupling); the Hessian drops the distance's own
-    curvature (Gauss-Newton on the normal) but keeps the chain's geometric stiffness under every
-    contact and friction force."""
+    """Gradient (n,) and Hessian of :func:`energy` at ``phi`` (its nodes ``nodes``) over
+    ``z = [phi, u.ravel()]``, in blocks: joints ``hess`` (m, m), joints-pieces ``hjp`` (m, 3 npc) and
+    each piece's own ``hpp`` (npc, 3, 3) (the pieces are independent springs: no piece-piece
+    coupling); the Hessian drops the distance's own curvature (Gauss-Newton on the normal) but keeps
+    the chain's geometric stiffness under every contact and friction force."""
     m = phi.shape[0]
     npc = u.shape[0]
     n = m + 3 * npc
@@ -577,7 +577,6 @@ def grad_hess(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi
         grad[j] += mj
         if want_hess:
             hess[j, j] += dmj
-    nodes, theta = chain_nodes(theta0, n0, phi, seg_len)
     smat = np.zeros((m, 3, 3))
     va = np.zeros(m)
     vf = np.zeros((m, 2))
@@ -918,7 +917,8 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
     near = _rows_below(rows, dhat + _NEAR_MARGIN_M)
     ref_nodes = anchor
     ref_u = u.copy()
-    e0 = energy(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
+    nodes = anchor  # of phi, as phi moves
+    e0 = energy(nodes, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
                 wa, wb, wpiece, wvert, wrad, pc0, u, near, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0, fr_xw0,
                 dhat, kappa, eps_v)
     if not math.isfinite(e0):
@@ -928,7 +928,7 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
     shift = 0.0  # the last Levenberg shift, warm start of the next (a tenth of it)
     damp = 0.0  # Levenberg-Marquardt damping: grows while steps are cut short, shrinks when they are taken whole
     for it in range(max_iter + 1):
-        grad, hess, hjp, hpp = grad_hess(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
+        grad, hess, hjp, hpp = grad_hess(nodes, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
                                wa, wb, wpiece, wvert, wrad, pc0, u, near, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam,
                                fr_xr0, fr_xw0, dhat, kappa, eps_v, True)
         res_m = 0.0
@@ -950,7 +950,7 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
         for j in range(m):
             smax = max(smax, abs(step[j]))
         scale = 1.0 if smax <= 0.5 else 0.5 / smax
-        nodes0, _ = chain_nodes(theta0, n0, phi, seg_len)
+        nodes0 = nodes
         trial_phi = phi + scale * step[:m]
         nodes1, _ = chain_nodes(theta0, n0, trial_phi, seg_len)
         move = 0.0
@@ -977,7 +977,7 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
                 near = _near_pairs(trial_nodes, pairs, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u_try, dhat + _NEAR_MARGIN_M)
                 ref_nodes = trial_nodes
                 ref_u = u_try.copy()
-            e1 = energy(theta0, n0, trial_phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
+            e1 = energy(trial_nodes, trial_phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
                         wa, wb, wpiece, wvert, wrad, pc0, u_try, near, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam,
                         fr_xr0, fr_xw0, dhat, kappa, eps_v)
             if math.isfinite(e1) and (e1 <= e0 + 1e-4 * alpha * slope or (e1 - e0) <= 1e-13 * abs(e0)):
@@ -995,7 +995,8 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
         phi[:] = trial_phi
         u[:, :] = u_try
         # rebuild the pair list once anything has moved by a step's length since it was built
-        now, _ = chain_nodes(theta0, n0, phi, seg_len)
+        now = trial_nodes  # the nodes of the accepted phi
+        nodes = now
         drift = 0.0
         for j in range(m + 1):
             drift = max(drift, math.sqrt((now[j, 0] - anchor[j, 0]) ** 2 + (now[j, 1] - anchor[j, 1]) ** 2))
@@ -1009,7 +1010,7 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
             near = _rows_below(rows, dhat + _NEAR_MARGIN_M)
             ref_nodes = now
             ref_u = u.copy()
-            e0 = energy(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
+            e0 = energy(nodes, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
                         wa, wb, wpiece, wvert, wrad, pc0, u, near, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam,
                         fr_xr0, fr_xw0, dhat, kappa, eps_v)
         else:  # the same pairs at the accepted trial: its energy
