@@ -69,7 +69,7 @@ def table(rows: list[dict]) -> list[str]:
     for r in sorted(rows, key=lambda r: r["wall_s_per_sim_s"]):
         cells = "".join(f"{fmt.format(r['setting'][f] * k):>9}" for f, _, k, fmt in FIELD_HEADERS)
         force = f"{100 * r['tip_force_error']:.2f}%" + ("" if r["tensile_converged"] else "!")
-        label = "default  <- SimConfig() today" if r["label"] == "default" else r["label"]
+        label = 'default  <- SimConfig(engine="dynamic")' if r["label"] == "default" else r["label"]
         lines.append(f"{label:<46}{cells}{force:>10}{r['tip_pose_error_mm']:>8.2f}{r['ubend_disagreement']:>7.2f}"
                      f"{r.get('ubend_disagreement_quasistatic', float('nan')):>7.2f}"
                      f"{r.get('wall_overlap_mm', float('nan')):>8.2f}{r.get('colon_peak_force_n', float('nan')):>8.2f}"
