@@ -209,3 +209,30 @@ def test_a_band_the_pressure_cannot_evert_stalls_the_robot_at_the_band():
     passes.set_pressure_command(2500.0)
     passes.run(4.0)
     assert passes.length == pytest.approx(0.3) and not passes.stalled
+
+
+def test_ctrl_c_inside_a_compiled_solve_is_a_keyboard_interrupt(monkeypatch):
+    """numba leaves a SIGINT that arrives inside a compiled function pending; when the function
+    returns Python raises ``SystemError(... returned a result with an exception set)`` caused by
+    the ``KeyboardInterrupt`` (seen under load in tests/test_robustness.py's Ctrl-C test: the
+    interrupt became a failed trial and the command ran on).  ``step`` raises the interrupt."""
+    from evertgym.sim import quasistatic
+
+    sim = EversionSim(TubeDesign(length_m=0.3), config=QS)
+    sim.set_pressure_command(3000.0)
+
+    def interrupted(*args):  # the chain seen: SystemError <- SystemError (numba's _numba_unpickle) <- KeyboardInterrupt
+        try:
+            try:
+                raise KeyboardInterrupt
+            except KeyboardInterrupt as e:
+                raise SystemError("<function _numba_unpickle> returned a result with an exception set") from e
+        except SystemError as e:
+            raise SystemError("CPUDispatcher(solve_increment) returned a result with an exception set") from e
+
+    monkeypatch.setattr(quasistatic.qk, "solve_increment", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        sim.run(1.0)
+    monkeypatch.setattr(quasistatic.qk, "solve_increment", lambda *a: (_ for _ in ()).throw(SystemError("other")))
+    with pytest.raises(SystemError, match="other"):
+        sim.run(1.0)

@@ -380,7 +380,23 @@ class QuasiStaticSim(GrowingTube):
         advance every step; the body is re-solved whenever the tip has grown by the increment or
         the pressure has moved by ``cfg.pressure_increment_fraction`` since the last solve (of that
         pressure, at least 1 kPa), and once more when the pressure has settled within a tenth of that
-        of its command: a held pressure is solved to within a tenth of the increment."""
+        of its command: a held pressure is solved to within a tenth of the increment.
+
+        A Ctrl-C (SIGINT) whose handler runs inside a compiled solve (numba calls back into Python to
+        build the exceptions it raises and catches) surfaces, when the solve returns, as a chain of
+        ``SystemError`` caused by the ``KeyboardInterrupt``: it is raised here as the interrupt it is,
+        so that a resumable command stops and says how to resume."""
+        try:
+            self._step(n_steps)
+        except SystemError as e:
+            cause: BaseException | None = e
+            while cause is not None and not isinstance(cause, KeyboardInterrupt):
+                cause = cause.__cause__
+            if cause is not None:
+                raise KeyboardInterrupt from None
+            raise
+
+    def _step(self, n_steps: int) -> None:
         cfg = self.cfg
         dt = cfg.dt_s
         p_sum, f_max = 0.0, 0.0
