@@ -536,7 +536,7 @@ def segment_forces(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wra
     nodes, _ = chain_nodes(theta0, n0, phi, seg_len)
     m = phi.shape[0]
     grad = np.zeros(m + 3 * u.shape[0])
-    pairs = _rows_below(wide, dhat)
+    pairs = _rows_to_pairs(_rows_where(wide, dhat))
     acc_f, acc_m, _, tip = _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, pairs, fr_k, fr_s, fr_w, fr_wl, fr_t,
                                           fr_mulam, fr_xr0, fr_xw0, dhat, kappa, eps_v, grad, np.zeros((1, 1)), np.zeros((1, 3, 3)),
                                           np.zeros((m, 3, 3)), np.zeros(m), np.zeros((m, 2)), False)
@@ -859,23 +859,6 @@ def _rows_where(rows, reach):
 
 
 @nb.njit(cache=True, nogil=True)
-def _rows_below(rows, reach):
-    """``(k, w)`` of the contact rows (:func:`pair_rows`) with a gap below ``reach`` (m), in order."""
-    cnt = 0
-    for i in range(rows.shape[0]):
-        if rows[i, 10] < reach:
-            cnt += 1
-    out = np.empty((cnt, 2), np.int64)
-    cnt = 0
-    for i in range(rows.shape[0]):
-        if rows[i, 10] < reach:
-            out[cnt, 0] = int(rows[i, 0])
-            out[cnt, 1] = int(rows[i, 1])
-            cnt += 1
-    return out
-
-
-@nb.njit(cache=True, nogil=True)
 def _near_pairs(nodes, pairs, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, reach):
     """The pairs ``(k, w)`` of ``pairs`` with a gap below ``reach`` (m) at ``nodes``, ``u``, in order."""
     keep = np.empty(pairs.shape[0], np.bool_)
@@ -914,7 +897,7 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
     # the pairs within dhat + _NEAR_MARGIN_M of the reference configuration (ref_nodes, ref_u): every pair
     # that can act while nothing has moved by more than the margin since (the others add exactly zero)
     rho = _piece_reach(wa, wb, wpiece, npc)
-    near = _rows_below(rows, dhat + _NEAR_MARGIN_M)
+    near = _rows_to_pairs(_rows_where(rows, dhat + _NEAR_MARGIN_M))
     ref_nodes = anchor
     ref_u = u.copy()
     nodes = anchor  # of phi, as phi moves
@@ -1007,7 +990,7 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
             pairs = _rows_to_pairs(rows)
             anchor = now
             anchor_u = u.copy()
-            near = _rows_below(rows, dhat + _NEAR_MARGIN_M)
+            near = _rows_to_pairs(_rows_where(rows, dhat + _NEAR_MARGIN_M))
             ref_nodes = now
             ref_u = u.copy()
             e0 = energy(nodes, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,

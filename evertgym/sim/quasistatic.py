@@ -708,7 +708,7 @@ class QuasiStaticSim(GrowingTube):
             blo, bhi = self._feature_boxes[0][sel], self._feature_boxes[1][sel]
             close = np.zeros(len(sel), np.bool_)
             close[qk.select_features(nodes[a:], seg_rad, blo, bhi, cfg.barrier_gap_m + _PIECE_MARGIN_M)] = True
-            unknown = np.zeros(len(self._piece_bodies), np.bool_)
+            unknown = np.zeros(len(self._piece_bodies) + 1, np.bool_)  # per piece; the last entry: static walls (-1)
             unknown[wpiece_g[(wpiece_g >= 0) & close]] = True
             if a > 0 and np.any(unknown):  # a piece the held body touches is held with it (else a solve could push it into the body)
                 held = qk.touching(nodes[: a + 1], self.seg_rad[:a], blo, bhi, a_sel, b_sel, wpiece_g,
@@ -724,9 +724,7 @@ class QuasiStaticSim(GrowingTube):
                     loc = arr[moving].copy()
                     arr[moving, 0] = o[:, 0] + c * loc[:, 0] - sn * loc[:, 1]
                     arr[moving, 1] = o[:, 1] + sn * loc[:, 0] + c * loc[:, 1]
-            by_piece = np.zeros(len(self._piece_bodies) + 1, np.bool_)  # the last entry: static walls (-1)
-            by_piece[pieces] = True
-            solved = by_piece[wpiece_g]
+            solved = unknown[wpiece_g]
             wa[solved], wb[solved] = a_sel[solved], b_sel[solved]  # in the piece's frame
         local = np.full(len(self._piece_bodies) + 1, -1, np.int64)
         local[pieces] = np.arange(len(pieces))
