@@ -367,8 +367,12 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     peak = max(s, key=lambda x: x["tip_force_n"])
     print(f"U-bend {args.radius_mm:g} mm, reduction {args.reduction:g}, trial {args.seed}: "
           f"{'passed' if trace['success'] else 'jammed'} at {s[-1]['insertion_mm']:.0f} mm after {s[-1]['t_s']:.1f} s")
-    print(f"largest wall force on the tip {peak['tip_force_n']:.2f} N at {peak['t_s']:.1f} s "
-          f"(capacity of the weakest section then {peak['tip_capacity_n']:.2f} N)")
+    if peak.get("push_capacity_n") is not None:  # the quasi-static engine
+        print(f"largest wall force on the tip {peak['tip_force_n']:.2f} N at {peak['t_s']:.1f} s, {peak['tip_axial_force_n']:.2f} N "
+              f"of it against growth (the push the tip could deliver then {peak['push_capacity_n']:.2f} N)")
+    else:
+        print(f"largest wall force on the tip {peak['tip_force_n']:.2f} N at {peak['t_s']:.1f} s "
+              f"(capacity of the weakest section then {peak['tip_capacity_n']:.2f} N)")
     last = s[-1]
     if last["moment_ratio"]:
         j = max(range(len(last["moment_ratio"])), key=lambda k: last["moment_ratio"][k])

@@ -40,7 +40,8 @@ def trace_ubend(radius_mm: float, reduction: float = 0.0, seed: int = 0, sim: di
     info = run_episode(env, policy, int(spec.seed), stop=record)
     bands = [b.position_m * 1e3 for b in env.sim.design.bands]
     return {"radius_mm": radius_mm, "reduction": reduction, "seed": seed, "success": bool(info["success"]),
-            "section_law": env.sim.cfg.section_law, "casing_friction": float(env.scene.params["wall_friction"]),
+            "section_law": env.sim.cfg.section_law, "engine": env.sim.cfg.engine,
+            "casing_friction": float(env.scene.params["wall_friction"]),
             "bands_mm": [round(b, 1) for b in bands], "bend_start_mm": float(env.scene.params["pipe_length_mm"]),
             "samples": samples}
 
@@ -54,12 +55,17 @@ def plot_trace(trace: dict[str, Any], path: str | Path) -> Path:
     fig, axes = plt.subplots(3, 1, figsize=(7.5, 8.5), sharex=True)
     ax = axes[0]
     ax.plot(t, [x["tip_force_n"] for x in s], label="wall force on the tip")
-    ax.plot(t, [x["tip_capacity_n"] for x in s], "--", label="capacity of the weakest section")
+    if s and s[0].get("push_capacity_n") is not None:  # the quasi-static engine: the push the growth law allows
+        ax.plot(t, [x["tip_axial_force_n"] for x in s], label="its part against growth")
+        ax.plot(t, [x["push_capacity_n"] for x in s], "--", label="push the tip can deliver (growth law, band fold)")
+    else:
+        ax.plot(t, [x["tip_capacity_n"] for x in s], "--", label="capacity of the weakest section")
     ax.set_ylabel("N")
     ax.legend(fontsize=8)
     outcome = "passed" if trace["success"] else "jammed"
     design = "no bands" if trace["reduction"] == 0 else f"3 x {round(trace['reduction'] * 100)}%"
-    model = "section law" if trace["section_law"] else "rigid column"
+    engine = trace.get("engine", "dynamic")
+    model = "quasi-static" if engine == "quasistatic" else ("dynamic, section law" if trace["section_law"] else "dynamic, rigid column")
     ax.set_title(f"U-bend {trace['radius_mm']:g} mm, {design}, trial {trace['seed']} ({model}, casing "
                  f"{trace['casing_friction']:g}): {outcome}")
     for ax, key, label, vmin, vmax, cmap in ((axes[1], "moment_ratio", "|M| / M_c", 0.0, 1.0, "viridis"),

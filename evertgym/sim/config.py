@@ -81,6 +81,12 @@ class SimConfig:
         fraction of the last solve's pressure and at least of 1 kPa, after which the body is
         re-solved while it touches a wall or is growing).  A field that means nothing to the chosen
         engine is rejected.
+    Band-mechanism laws (quasi-static engine; :mod:`evertgym.sim.band_laws`, issue 26)
+        ``band_fold``: an everted band folds axially (goes slack) when the tip's push and the tail's
+        tension exceed ``p pi r_b^2``; growth then stops.  ``fold_pinch_per_rad``: the tail's losses
+        grow by ``exp(mu_p Phi)`` with the body's excess fold angle ``Phi``.
+        ``band_eversion_threshold``: False removes the calibrated threshold of a band at the tip (a
+        counterfactual of the study).  Off (and True) by default.
     """
 
     segment_length_m: float = 0.0075
@@ -121,6 +127,9 @@ class SimConfig:
     friction_lag_iterations: int = 1
     max_newton_iterations: int = 60
     pressure_increment_fraction: float = 0.05
+    band_fold: bool = False
+    fold_pinch_per_rad: float = 0.0
+    band_eversion_threshold: bool = True
 
     def __post_init__(self) -> None:
         _check("segment_length_m", self.segment_length_m, 0.0005, 0.05, lo_open=False)
@@ -162,6 +171,10 @@ class SimConfig:
         _check("friction_lag_iterations", self.friction_lag_iterations, 0, 20)
         _check("max_newton_iterations", self.max_newton_iterations, 1, 10000)
         _check("pressure_increment_fraction", self.pressure_increment_fraction, 1e-6, 0.5)
+        _check("fold_pinch_per_rad", self.fold_pinch_per_rad, 0.0, 10.0)
+        for name in ("band_fold", "band_eversion_threshold"):
+            if not isinstance(getattr(self, name), bool):
+                raise ValueError(f"{name} = {getattr(self, name)!r} is out of range: allowed true or false")
         other = "dynamic" if self.engine == "quasistatic" else "quasistatic"
         foreign = DYNAMIC_ONLY if self.engine == "quasistatic" else QUASISTATIC_ONLY
         for name in foreign:
@@ -189,5 +202,6 @@ DYNAMIC_ONLY = ("damping", "inertia_factor", "mass_ratio", "iterations", "law_in
                 "relax_force_n", "max_relax_steps", "dormant_walls", "wall_wake_margin_m", "tail_drag_fraction")
 #: Settings of the quasi-static engine.
 QUASISTATIC_ONLY = ("growth_increment_m", "solver_tolerance", "barrier_gap_m", "friction_slip_m", "friction_lag_iterations",
-                    "max_newton_iterations", "pressure_increment_fraction")
+                    "max_newton_iterations", "pressure_increment_fraction", "band_fold", "fold_pinch_per_rad",
+                    "band_eversion_threshold")
 _DEFAULTS = {f.name: f.default for f in fields(SimConfig)}

@@ -97,5 +97,6 @@ def section_state(sim: EversionSim) -> dict:
         "tip_force_n": round(float(math.hypot(*sim.tip_contact)), 4),
         "tip_axial_force_n": round(sim.tip_force, 4),
         "tip_capacity_n": round(sim.tip_capacity, 4),
+        "push_capacity_n": round(sim.push_capacity, 4) if hasattr(sim, "push_capacity") else None,
         "kinked_joints_mm": [round(float(sim.nodes[j]) * 1e3, 2) for j in sim.kinked_joints],
     }

@@ -51,6 +51,7 @@ from evertgym.model.eversion import EversionThreshold, tail_weight_pressure
 from evertgym.model.params import ModelParams, load_params
 from evertgym.model.pressure import _END_SLOPE, KINK_MOMENT_FRACTION, wrinkled_moment_fraction
 from evertgym.sim import qs_kernel as qk
+from evertgym.sim.band_laws import band_fold_pressure, fold_excess
 from evertgym.sim.config import SimConfig
 from evertgym.sim.discretize import RESIDUAL_STIFFNESS_FRACTION
 from evertgym.sim.events import SimEvent
@@ -225,6 +226,7 @@ class QuasiStaticSim(GrowingTube):
         # against the clamp), length and collision radius
         self.phi = np.zeros(0)  # rad
         self._turn: float | None = None  # sum |phi| (rad), cached until the joints change
+        self._excess: float | None = None  # the excess fold angle (rad), cached with it
         self.seg_len = np.zeros(0)  # m
         self.seg_rad = np.zeros(0)  # m
         self.length = 0.0
@@ -364,12 +366,59 @@ class QuasiStaticSim(GrowingTube):
         """Total turning of the body, ``sum |phi|`` (rad): the bend loss's angle."""
         if self._turn is None:
             self._turn = float(np.sum(np.abs(self.phi)))
+            self._excess = None
         return self._turn
 
     def _required(self, tip_force: float) -> float:
-        p_y, area = self._tip_threshold()
+        """Pressure (Pa) the tip needs against the wall's reaction ``tip_force`` (N): the growth law
+        (:mod:`evertgym.sim.growth`) with the band-mechanism laws switched on in ``cfg``
+        (:mod:`evertgym.sim.band_laws`)."""
+        cfg = self.cfg
+        p_y, area = self._tip_threshold() if cfg.band_eversion_threshold else self._bare_threshold
         tail = tail_weight_pressure(self.design.diameter_m, self.design.wall_thickness_m, self.length) if self.vertical_tail else 0.0
-        return self.growth.required_pressure(p_y, tip_force, area, self._turning(), tail, None)
+        req = self.growth.required_pressure(p_y, tip_force, area, self._turning(), tail, None)
+        if cfg.fold_pinch_per_rad > 0:
+            req *= math.exp(cfg.fold_pinch_per_rad * self._fold_excess())
+        if cfg.band_fold:
+            tail_base = self._bare_threshold[0] * self._bare_threshold[1]
+            for j, r_b in self._everted_bands():
+                turn = float(np.sum(np.abs(self.phi[:j])))
+                req = max(req, band_fold_pressure(tip_force, tail_base * math.exp(cfg.bend_loss_per_rad * turn), r_b))
+        return req
+
+    @property
+    def push_capacity(self) -> float:
+        """The wall reaction against growth (N) at which the tip stops growing at the present
+        pressure: the growth law's drive, and with ``band_fold`` the push an everted band passes on
+        before it goes slack (the smaller); 0 when the pressure cannot evert the tip at all."""
+        cfg = self.cfg
+        p = max(self.pressure, 0.0)
+        p_y, area = self._tip_threshold() if cfg.band_eversion_threshold else self._bare_threshold
+        tail = tail_weight_pressure(self.design.diameter_m, self.design.wall_thickness_m, self.length) if self.vertical_tail else 0.0
+        loss = math.exp(cfg.bend_loss_per_rad * self._turning() + cfg.fold_pinch_per_rad * self._fold_excess())
+        cap = (p / loss - p_y - tail) * area
+        if cfg.band_fold:
+            tail_base = self._bare_threshold[0] * self._bare_threshold[1]
+            for j, r_b in self._everted_bands():
+                turn = float(np.sum(np.abs(self.phi[:j])))
+                cap = min(cap, p * math.pi * r_b * r_b - tail_base * math.exp(cfg.bend_loss_per_rad * turn))
+        return max(cap, 0.0)
+
+    def _fold_excess(self) -> float:
+        """The body's excess fold angle (rad, :func:`~evertgym.sim.band_laws.fold_excess`), cached with
+        the turning until the joints change."""
+        if self._turn is None or self._excess is None:
+            self._turning()
+            self._excess = fold_excess(self.phi, self.seg_len, self._r_cell[: len(self.phi)])
+        return self._excess
+
+    def _everted_bands(self) -> list[tuple[int, float]]:
+        """The bands wholly everted (behind the tip): their first joint and their radius (m)."""
+        out = []
+        for b in self.design.bands:
+            if b.position_m + 0.5 * b.width_m <= self.length:
+                out.append((int((b.position_m - 0.5 * b.width_m) / self.ds), self.design.radius_m * (1.0 - b.reduction)))
+        return out
 
     def required_pressure(self) -> float:
         """Pressure (Pa) the tip needs to grow now (threshold, bend loss, the wall's reaction)."""

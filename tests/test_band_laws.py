@@ -1,0 +1,129 @@
+"""The switchable laws of the band-mechanism study (issue 26, evertgym.sim.band_laws): their
+formulas, their effect on the quasi-static engine's stall, and their bad input."""
+
+from __future__ import annotations
+
+import math
+import re
+
+import numpy as np
+import pytest
+from test_sim import _InclinedWall, grow_into_inclined_wall
+
+from evertgym.design import Band, TubeDesign
+from evertgym.sim import EversionSim, SimConfig
+from evertgym.sim.band_laws import band_fold_pressure, fold_excess
+
+R = 0.02  # the paper robot's radius (m)
+
+
+def test_a_band_goes_slack_at_the_paper_robots_numbers():
+    """bend-physics.md section 8: at 3 kPa a 10/20/30% band's wall tension p pi r_b^2 is 3.05 / 2.41 /
+    1.85 N; a push equal to it makes the band slack exactly at 3 kPa."""
+    for red, force in ((0.1, 3.05), (0.2, 2.41), (0.3, 1.85)):
+        r_b = R * (1 - red)
+        assert 3000.0 * math.pi * r_b**2 == pytest.approx(force, abs=0.01)
+        assert band_fold_pressure(force - 0.5, 0.5, r_b) == pytest.approx(3000.0, rel=0.01)
+    assert band_fold_pressure(-1.0, 0.0, R) == 0.0  # a wall pulling the tip is no push
+
+
+def test_the_excess_fold_angle_is_zero_for_a_smooth_bend_and_the_hinge_angle_for_a_fold():
+    ds = 0.0075
+    smooth = np.full(20, 0.5 * ds / R)  # curvature 1 / (2 r): the inner side shortened, not folded
+    assert fold_excess(smooth, np.full(20, ds), np.full(20, R)) == 0.0
+    for n in (10, 20, 40):  # one hinge of 1 rad: Phi -> 1 rad as the segments shrink
+        phi = np.zeros(n)
+        phi[n // 2] = 1.0
+        seg = np.full(n, 0.15 / n)
+        assert fold_excess(phi, seg, np.full(n, R)) == pytest.approx(1.0 - 0.15 / n / R)
+
+
+def test_a_band_that_folds_under_the_push_stops_the_tip_at_a_smaller_wall_force():
+    """Head-on against a wall (10 degrees incidence) with a 30% band everted behind the tip: with
+    ``band_fold`` the robot stalls when the wall's reaction reaches p pi r_b^2 - T_tail; without it,
+    at the growth law's own limit, which is larger."""
+    design = TubeDesign(length_m=0.3, bands=(Band(0.04, 0.3),))
+    out = {}
+    for fold in (False, True):
+        cfg = SimConfig(engine="quasistatic", band_fold=fold)
+        sim = EversionSim(design, scene=_InclinedWall(0.1, 80.0), config=cfg)
+        sim.set_pressure_command(3000.0)
+        sim.run(4.0)
+        assert sim.stalled and sim.solve_stats["solve_failures"] == 0
+        out[fold] = sim.tip_force
+    p_y = float(sim.threshold(0.0))
+    r_b = R * 0.7
+    cap = 3000.0 * math.pi * r_b**2 - p_y * math.pi * R**2  # the tail's tension: the bare threshold's force
+    assert out[True] == pytest.approx(cap, rel=0.03)
+    assert out[False] > out[True] + 0.5
+
+
+def test_the_laws_are_off_by_default_and_leave_the_engine_unchanged():
+    a, _ = grow_into_inclined_wall(80.0, SimConfig(engine="quasistatic"))
+    b, _ = grow_into_inclined_wall(80.0, SimConfig(engine="quasistatic", fold_pinch_per_rad=0.0, band_fold=False))
+    assert a.length == b.length and a.tip_force == b.tip_force
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    (dict(engine="dynamic", band_fold=True), "band_fold = True means nothing to engine 'dynamic'"),
+    (dict(fold_pinch_per_rad=-0.1), "fold_pinch_per_rad = -0.1 is out of range"),
+    (dict(band_fold="yes"), "band_fold = 'yes' is out of range: allowed true or false"),
+    (dict(engine="dynamic", band_eversion_threshold=False), "band_eversion_threshold = False means nothing to engine 'dynamic'"),
+])
+def test_bad_law_settings_are_one_line(kwargs, message):
+    with pytest.raises(ValueError, match=re.escape(message)) as err:
+        SimConfig(**kwargs)
+    assert "\n" not in str(err.value)
+
+
+# ---- the study's bookkeeping (evertgym.experiments.mechanisms) --------------------------------------------------
+
+def _paper_like_table():
+    """A table that meets every criterion: bare 12/12 to 37.5, 6/12 at 35, 0 below 32.5; 10% 12/12 to 30, 8/12
+    at 27.5 and 25, 2/12 below; 20% and 30% fewer, 30% at most 2/12 per cell."""
+    from evertgym.experiments.paper import UBEND_RADII_MM
+    bare = {40.0: 12, 37.5: 12, 35.0: 6, 32.5: 4}
+    ten = {40.0: 12, 37.5: 12, 35.0: 12, 32.5: 12, 30.0: 12, 27.5: 8, 25.0: 8}
+    t = {}
+    for r in UBEND_RADII_MM:
+        t[(0.0, r)] = (bare.get(r, 0), 12)
+        t[(0.1, r)] = (ten.get(r, 2), 12)
+        t[(0.2, r)] = (ten.get(r, 2) // 2, 12)
+        t[(0.3, r)] = (2 if r >= 35 else 0, 12)
+    return t
+
+
+def test_the_criteria_pass_a_table_like_the_papers_and_name_each_failure():
+    from evertgym.experiments.mechanisms import criteria
+    t = _paper_like_table()
+    assert all(ok for _, ok in criteria(t))
+    t[(0.0, 30.0)] = (3, 12)  # a bare robot passing 25% at 30 mm
+    for r in (40.0, 37.5, 35.0, 32.5, 30.0, 27.5, 25.0):  # 30% bands beating 10%
+        t[(0.3, r)] = (12, 12)
+    failed = [name for name, ok in criteria(t) if not ok]
+    assert failed == ["no bands <= 10% at 30 mm and below", "30% fewer successes than 10%", "30% bands pass <= 20% of their trials"]
+
+
+def test_the_fit_error_is_the_squared_distance_to_the_papers_bare_rates():
+    from evertgym.experiments.mechanisms import PAPER_BARE, bare_error, largest_move
+    t = {(0.0, r): (round(12 * v), 12) for r, v in PAPER_BARE.items()}
+    assert bare_error(t) == pytest.approx(sum((round(12 * v) / 12 - v) ** 2 for v in PAPER_BARE.values()))
+    u = dict(t)
+    u[(0.0, 35.0)] = (12, 12)
+    assert bare_error(u) == pytest.approx(bare_error(t) - (7 / 12 - 0.583) ** 2 + (1 - 0.583) ** 2)
+    assert largest_move(t, u) == 5
+
+
+@pytest.mark.parametrize("argv, says", [
+    (["--candidates", "hinges,magic"], "--candidates = 'hinges,magic' is out of range: allowed a comma-separated subset of hinges"),
+    (["--trials", "0"], "--trials = 0 is out of range: allowed [1, 100]"),
+])
+def test_the_study_script_refuses_bad_input_in_one_line(argv, says, tmp_path):
+    import subprocess
+    import sys
+    from pathlib import Path
+    script = Path(__file__).resolve().parents[1] / "scripts" / "band_mechanisms.py"
+    out = subprocess.run([sys.executable, str(script), *argv, "--db", str(tmp_path / "s.sqlite"), "--write", ""],
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode != 0 and says in out.stderr and out.stderr.strip().count("\n") == 0
+    assert not (tmp_path / "s.sqlite").exists()
