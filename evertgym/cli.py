@@ -383,6 +383,13 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     return 0
 
 
+def _physics(sim: dict | None) -> str:
+    """Which physics (engine, band-mechanism laws, what was fitted) a result was made with (issue 26)."""
+    from evertgym.experiments.mechanisms import physics_note
+
+    return physics_note(sim)
+
+
 def cmd_reproduce_ubend(args: argparse.Namespace) -> int:
     from evertgym.experiments.paper import plot_ubend, reproduce_ubend
 
@@ -406,6 +413,7 @@ def cmd_reproduce_ubend(args: argparse.Namespace) -> int:
             out["solves"] = result["solves"]
         if args.anatomy:
             out["jam_anatomy"] = result["jams"]
+        out["physics"] = _physics(sim)
         print(dumps(out))
         return 0
     radii = sorted({r["radius_mm"] for r in result["rows"]}, reverse=True)
@@ -423,6 +431,7 @@ def cmd_reproduce_ubend(args: argparse.Namespace) -> int:
               f"({100 * sv['failure_share']:.3f}%, in {sv['trials_with_failures']} trials; largest residual "
               f"{sv['max_residual_ratio']:.2g} of p pi r^2)")
     print(f"time: {result['wall_s']:.1f} s (store: {args.db})")
+    print(_physics(sim))
     if args.anatomy:
         from evertgym.experiments.paper import ubend_jam_table
 
@@ -434,14 +443,15 @@ def cmd_reproduce_ubend(args: argparse.Namespace) -> int:
 def cmd_reproduce_colon(args: argparse.Namespace) -> int:
     from evertgym.experiments.paper import reproduce_colon
 
-    result = reproduce_colon(args.db, progress=not args.json, sim=_sim_overrides(args.sim) or None)
+    sim = _sim_overrides(args.sim)
+    result = reproduce_colon(args.db, progress=not args.json, sim=sim or None)
     if args.plot:
         from evertgym.experiments.plots import plot_pressure_position
 
         plot_pressure_position(result["rows"], args.plot)
     if args.json:
         keys = ("reduction", "passed", "stall_position_mm", "peak_pressure_kpa") + (("jam",) if args.anatomy else ())
-        print(dumps({"rows": [{k: r[k] for k in keys} for r in result["rows"]]}))
+        print(dumps({"rows": [{k: r[k] for k in keys} for r in result["rows"]], "physics": _physics(sim)}))
         return 0
     print("Colon phantom, operator protocol (2 kPa, +0.5 kPa per 1 s stall, up to 8 kPa)")
     for r in result["rows"]:
@@ -453,6 +463,7 @@ def cmd_reproduce_colon(args: argparse.Namespace) -> int:
             print(f"{'':>12}jam: tip {j['heading_error_deg']:+.1f} deg off the channel, wall pushes back {j['tip_axial_force_n']:.2f} N "
                   f"along the tip, free span {j['free_span_mm']:.1f} mm, span max M/Mc {j['span_peak_moment_ratio']:.2f}, "
                   f"pressure margin {j['pressure_margin_kpa']:+.2f} kPa")
+    print(_physics(sim))
     return 0
 
 
@@ -532,7 +543,7 @@ def cmd_score(args: argparse.Namespace) -> int:
         plot_summary(rows, args.plot, title=f"{scene_text}; policy {policy_text}; "
                                             f"{args.scenes} scenes x {args.trials} trials per design")
     if args.json:
-        print(dumps({"rows": rows, "differences": differences}, default=float))
+        print(dumps({"rows": rows, "differences": differences, "physics": _physics(episode["sim"])}, default=float))
         return 0
     print(f"policy: {policy_text}")
     print(f"scene:  {scene_text}, seeds 0-{args.scenes - 1}; {args.trials} trials per scene "
@@ -547,6 +558,7 @@ def cmd_score(args: argparse.Namespace) -> int:
         print(f"{r['design_name']:>{width}} {r['n']:>5} {r['success_rate']:>8.2f} {ci:>15} {t:>7} {pk:>9} {f:>11}")
     _print_differences(differences)
     print(f"store: {args.db}" + (f"; plot: {args.plot}" if args.plot else ""))
+    print(_physics(episode["sim"]))
     return 0
 
 
@@ -566,13 +578,14 @@ def cmd_optimize(args: argparse.Namespace) -> int:
         policy=args.policy, backend=args.backend, progress=not args.json, sim=_sim_overrides(args.sim),
     )
     if args.json:
-        print(dumps(out, default=float))
+        print(dumps({**out, "physics": _physics(_sim_overrides(args.sim))}, default=float))
         return 0
     print(f"best after {out['trials']} designs: {_best_design_text(out['best_design'], out['best_params'])}")
     print("held-out scenes:")
     for r in out["held_out"]:
         print(f"  {r['design_name']:>24}: success {r['success_rate']:.2f} [{r['success_ci_lo']:.2f}, {r['success_ci_hi']:.2f}] (n={r['n']})")
     _print_differences(_differences(out["held_out"], ["best", *(r["design_name"] for r in out["held_out"] if r["design_name"] != "best")]))
+    print(_physics(_sim_overrides(args.sim)))
     return 0
 
 

@@ -12,7 +12,7 @@ from test_sim import _InclinedWall, grow_into_inclined_wall
 
 from evertgym.design import Band, TubeDesign
 from evertgym.sim import EversionSim, SimConfig
-from evertgym.sim.band_laws import band_fold_pressure, fold_excess
+from evertgym.sim.band_laws import band_fold_pressure, flattening, fold_excess
 
 R = 0.02  # the paper robot's radius (m)
 
@@ -36,6 +36,35 @@ def test_the_excess_fold_angle_is_zero_for_a_smooth_bend_and_the_hinge_angle_for
         phi[n // 2] = 1.0
         seg = np.full(n, 0.15 / n)
         assert fold_excess(phi, seg, np.full(n, R)) == pytest.approx(1.0 - 0.15 / n / R)
+
+
+def test_flattening_starts_at_wrinkling_saturates_at_three_times_it_and_is_deeper_at_a_band():
+    k = np.full(5, 2.0)  # N m/rad
+    mw = np.full(5, 0.02)  # N m: wrinkling at phi_w = 0.01 rad
+    phi = np.array([0.005, 0.01, 0.02, 0.03, 0.5])  # x = 0.5, 1, 2, 3, 50
+    r = np.full(5, R)
+    assert flattening(phi, k, mw, r, R, 0.2) == pytest.approx([0.0, 0.0, 0.1, 0.2, 0.2])
+    r[4] = 0.9 * R  # a 10% band: f_max 0.2 + 0.1
+    assert flattening(-phi, k, mw, r, R, 0.2)[4] == pytest.approx(0.3)
+
+
+def test_flattening_shrinks_the_collision_radius_of_a_bent_body_and_its_collapse_moment():
+    """The paper robot grown into a 30 mm U-bend: with flattening the segments in the bend collide with
+    a smaller radius and their joints collapse at a lower moment; without it, neither changes."""
+    from evertgym.experiments.trial import make_trial_env
+    from evertgym.experiments.paper import ubend_specs
+    out = {}
+    for f_max in (0.0, 0.2):
+        spec = ubend_specs(1, radii=(30.0,), reductions=(0.0,), sim={"engine": "quasistatic", "flattening": f_max})[0]
+        env = make_trial_env(spec)
+        env.reset(seed=0)
+        sim = env.sim
+        sim.set_pressure_command(3000.0)
+        sim.run(4.5)  # the tip is in the bend
+        assert sim.length > 0.34
+        out[f_max] = (float(np.min(sim.radii()[:-1])), float(np.min(sim.collapse_moments() / (3000.0 * math.pi * R**3))))
+    assert out[0.0][0] == pytest.approx(R, abs=1e-9) and out[0.0][1] == pytest.approx(sim.pressure / 3000.0, rel=0.05)
+    assert out[0.2][0] < 0.9 * R and out[0.2][1] < 0.9 * out[0.0][1]
 
 
 def test_a_band_that_folds_under_the_push_stops_the_tip_at_a_smaller_wall_force():
@@ -67,6 +96,8 @@ def test_the_laws_are_off_by_default_and_leave_the_engine_unchanged():
 @pytest.mark.parametrize("kwargs, message", [
     (dict(engine="dynamic", band_fold=True), "band_fold = True means nothing to engine 'dynamic'"),
     (dict(fold_pinch_per_rad=-0.1), "fold_pinch_per_rad = -0.1 is out of range"),
+    (dict(flattening=0.6), "flattening = 0.6 is out of range"),
+    (dict(engine="dynamic", flattening=0.2), "flattening = 0.2 means nothing to engine 'dynamic'"),
     (dict(band_fold="yes"), "band_fold = 'yes' is out of range: allowed true or false"),
     (dict(engine="dynamic", band_eversion_threshold=False), "band_eversion_threshold = False means nothing to engine 'dynamic'"),
 ])
@@ -127,3 +158,25 @@ def test_the_study_script_refuses_bad_input_in_one_line(argv, says, tmp_path):
                          capture_output=True, text=True, timeout=120)
     assert out.returncode != 0 and says in out.stderr and out.stderr.strip().count("\n") == 0
     assert not (tmp_path / "s.sqlite").exists()
+
+
+def test_the_physics_line_says_which_laws_are_on_and_what_the_default_misses():
+    from evertgym.experiments.mechanisms import physics_note
+    default = physics_note()
+    assert "quasi-static engine" in default and "laws on: none" in default and "not reproduced" in default
+    folded = physics_note({"band_fold": True, "flattening": 0.2})
+    assert "laws on: band fold, flattening" in folded and "Not a default" in folded and "not reproduced" not in folded
+    assert physics_note({"engine": "dynamic", "section_law": True}).startswith("physics: dynamic engine (section law)")
+
+
+def test_reproduce_ubend_names_its_physics_in_the_table_and_the_json(capsys, tmp_path):
+    import json
+
+    from evertgym.cli import main
+    argv = ["reproduce", "ubend", "--sim", '{"band_fold": true}', "--radii", "40", "--reductions", "0.3", "--trials", "1",
+            "--db", str(tmp_path / "u.sqlite"), "--backend", "serial"]
+    assert main([*argv, "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert "band fold" in out["physics"] and out["rows"][0]["successes"] == 0  # a 30% band folds under a 40 mm bend's push
+    assert main(argv) == 0
+    assert "physics: quasi-static engine" in capsys.readouterr().out

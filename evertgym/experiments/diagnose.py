@@ -57,7 +57,7 @@ def plot_trace(trace: dict[str, Any], path: str | Path) -> Path:
     ax.plot(t, [x["tip_force_n"] for x in s], label="wall force on the tip")
     if s and s[0].get("push_capacity_n") is not None:  # the quasi-static engine: the push the growth law allows
         ax.plot(t, [x["tip_axial_force_n"] for x in s], label="its part against growth")
-        ax.plot(t, [x["push_capacity_n"] for x in s], "--", label="push the tip can deliver (growth law, band fold)")
+        ax.plot(t, [x["push_capacity_n"] for x in s], "--", label="push the tip can deliver at this pressure")
     else:
         ax.plot(t, [x["tip_capacity_n"] for x in s], "--", label="capacity of the weakest section")
     ax.set_ylabel("N")

@@ -22,6 +22,13 @@ time and refits what the no-band U-bend rows may calibrate.  SI throughout.
   as ``ds`` shrinks (a hinge of angle ``phi`` gives ``Phi -> phi``).  A band's smaller radius
   lets it turn further before folding (``ds / r_b``), and a turn shared among several joints folds
   less than one sharp fold.
+* **Cross-section flattening** (``flattening``; note, section 5a, candidate 4; Brazier 1927).  A bent
+  pressurised tube ovalises past wrinkling; its section flattens towards the bend's plane.  Per joint,
+  ``f = f_max min(1, (x - 1) / 2)`` for ``x = kappa / kappa_w > 1`` (``kappa_w``: the curvature at the
+  wrinkling moment ``p pi r^3 / 2``), with ``f_max`` the bare value plus the local band reduction (a
+  band's slack fabric flattens further).  The segments either side of the joint collide with the
+  radius ``r (1 - f)`` and the joint's wrinkling and collapse moments scale with ``1 - f``.  The
+  engine lags it by one growth increment (the state of the last equilibrium sets the next).
 * **The eversion bottleneck** (candidate 3) is the calibrated threshold of the material at the
   tip (Exp 4, :class:`evertgym.model.eversion.EversionThreshold`), always part of the growth law;
   ``band_eversion_threshold = False`` removes it (a counterfactual of the study, never a default).
@@ -45,3 +52,14 @@ def band_fold_pressure(tip_force_n: float, tail_n: float, band_radius_m: float) 
     """Pressure (Pa) below which a band's wall goes slack under the tip's push ``tip_force_n`` and
     the tail's tension ``tail_n`` (N): ``(F_tip + T_tail) / (pi r_b^2)``."""
     return (max(tip_force_n, 0.0) + max(tail_n, 0.0)) / (math.pi * band_radius_m * band_radius_m)
+
+
+def flattening(phi: np.ndarray, k: np.ndarray, mw: np.ndarray, r_cell: np.ndarray, radius_m: float,
+               f_max: float) -> np.ndarray:
+    """Per joint the flattening ``f`` (fraction of the radius) of the law above: ``phi`` (rad), the
+    joint stiffness ``k`` (N m/rad) and unflattened wrinkling moment ``mw`` (N m), the local radius
+    ``r_cell`` (m) against the tube's ``radius_m``; ``f_max`` the bare tube's largest flattening."""
+    phi_w = np.where(k > 0, mw / np.maximum(k, 1e-300), np.inf)
+    x = np.abs(phi) / np.maximum(phi_w, 1e-300)
+    cap = f_max + np.clip(1.0 - r_cell / radius_m, 0.0, 1.0)
+    return np.where(x > 1.0, cap * np.minimum(1.0, 0.5 * (x - 1.0)), 0.0)

@@ -86,7 +86,9 @@ class SimConfig:
         tension exceed ``p pi r_b^2``; growth then stops.  ``fold_pinch_per_rad``: the tail's losses
         grow by ``exp(mu_p Phi)`` with the body's excess fold angle ``Phi``.
         ``band_eversion_threshold``: False removes the calibrated threshold of a band at the tip (a
-        counterfactual of the study).  Off (and True) by default.
+        counterfactual of the study).  ``flattening``: the bare tube's largest cross-section flattening
+        past wrinkling (a fraction of the radius; a band adds its reduction): the collision radius and
+        the collapse moment shrink with it.  Off (and True) by default.
     """
 
     segment_length_m: float = 0.0075
@@ -130,6 +132,7 @@ class SimConfig:
     band_fold: bool = False
     fold_pinch_per_rad: float = 0.0
     band_eversion_threshold: bool = True
+    flattening: float = 0.0
 
     def __post_init__(self) -> None:
         _check("segment_length_m", self.segment_length_m, 0.0005, 0.05, lo_open=False)
@@ -172,6 +175,7 @@ class SimConfig:
         _check("max_newton_iterations", self.max_newton_iterations, 1, 10000)
         _check("pressure_increment_fraction", self.pressure_increment_fraction, 1e-6, 0.5)
         _check("fold_pinch_per_rad", self.fold_pinch_per_rad, 0.0, 10.0)
+        _check("flattening", self.flattening, 0.0, 0.5, lo_open=False)
         for name in ("band_fold", "band_eversion_threshold"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"{name} = {getattr(self, name)!r} is out of range: allowed true or false")
@@ -203,5 +207,5 @@ DYNAMIC_ONLY = ("damping", "inertia_factor", "mass_ratio", "iterations", "law_in
 #: Settings of the quasi-static engine.
 QUASISTATIC_ONLY = ("growth_increment_m", "solver_tolerance", "barrier_gap_m", "friction_slip_m", "friction_lag_iterations",
                     "max_newton_iterations", "pressure_increment_fraction", "band_fold", "fold_pinch_per_rad",
-                    "band_eversion_threshold")
+                    "band_eversion_threshold", "flattening")
 _DEFAULTS = {f.name: f.default for f in fields(SimConfig)}

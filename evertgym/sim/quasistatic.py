@@ -51,7 +51,7 @@ from evertgym.model.eversion import EversionThreshold, tail_weight_pressure
 from evertgym.model.params import ModelParams, load_params
 from evertgym.model.pressure import _END_SLOPE, KINK_MOMENT_FRACTION, wrinkled_moment_fraction
 from evertgym.sim import qs_kernel as qk
-from evertgym.sim.band_laws import band_fold_pressure, fold_excess
+from evertgym.sim.band_laws import band_fold_pressure, flattening, fold_excess
 from evertgym.sim.config import SimConfig
 from evertgym.sim.discretize import RESIDUAL_STIFFNESS_FRACTION
 from evertgym.sim.events import SimEvent
@@ -266,6 +266,8 @@ class QuasiStaticSim(GrowingTube):
         self._rejoin: tuple[int, int] | None = None  # (joint, solves since) of the last widening
         # barrier stiffness: 0.1 x the largest drive (8 kPa pi r^2) per barrier gap (N/m)
         self._kappa = 0.1 * 8000.0 * math.pi * design.radius_m**2 / cfg.barrier_gap_m
+        self._flat = np.zeros(len(self.nodes))  # per joint: the cross-section's flattening f (band_laws.flattening)
+        self._seg_r0: dict[int, float] = {}  # per full segment: its radius unflattened (m)
         self._apply_pressure(0.0)
         self._solve()
         self._publish()
@@ -287,6 +289,8 @@ class QuasiStaticSim(GrowingTube):
         scale = self._law.effective_modulus(max(p, 0.0)) / self._e_ref
         self._k_all = scale / self._c_ref
         self._mw_all = 0.5 * max(p, 0.0) * math.pi * self._r3
+        if self.cfg.flattening > 0:
+            self._mw_all = self._mw_all * (1.0 - self._flat)
         self._p_applied = p
 
     def _scales(self) -> tuple[float, float]:
@@ -621,8 +625,31 @@ class QuasiStaticSim(GrowingTube):
                 self.seg_rad[j] = target
         return True  # an overlap is found by the solve (its start is then infeasible)
 
+    def _flatten(self) -> None:
+        """Cross-section flattening (``cfg.flattening``, :func:`~evertgym.sim.band_laws.flattening`) of
+        the window's joints from the accepted state, for the next solve: their collapse moments and the
+        collision radii of their full segments (a radius that grows back does so at most halfway into
+        its clearance, as the tip's does)."""
+        n, a = len(self.phi), self.active_start
+        mw0 = 0.5 * max(self._p_applied, 0.0) * math.pi * self._r3[a:n]
+        f = flattening(self.phi[a:], self._k_all[a:n], mw0, self._r_cell[a:n], self.design.radius_m, self.cfg.flattening)
+        self._flat[a:n] = f
+        self._mw_all[a:n] = mw0 * (1.0 - f)
+        for k in range(a, n - 1):
+            r0 = self._seg_r0.get(k)
+            if r0 is None:
+                r0 = self._seg_r0[k] = self._radius_between(self.nodes[k], self.nodes[k] + self.ds)
+            target = r0 * (1.0 - max(f[k - a], f[k + 1 - a]))
+            if target < self.seg_rad[k]:
+                self.seg_rad[k] = target
+            elif target > self.seg_rad[k]:
+                gap = self._segment_gap(k)
+                self.seg_rad[k] = min(target, self.seg_rad[k] + max(0.0, 0.5 * gap)) if math.isfinite(gap) else target
+
     def _publish(self) -> None:
         """Outputs and events after an accepted state."""
+        if self.cfg.flattening > 0:
+            self._flatten()
         mag = float(math.hypot(*self.tip_contact))
         self._tip_force_norm = mag
         self.max_contact_force = max(self.max_contact_force, mag)
