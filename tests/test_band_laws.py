@@ -180,3 +180,11 @@ def test_reproduce_ubend_names_its_physics_in_the_table_and_the_json(capsys, tmp
     assert "band fold" in out["physics"] and out["rows"][0]["successes"] == 0  # a 30% band folds under a 40 mm bend's push
     assert main(argv) == 0
     assert "physics: quasi-static engine" in capsys.readouterr().out
+
+
+def test_the_colon_criteria_want_the_bare_robot_stalled_and_the_banded_one_through_below_8kpa():
+    from evertgym.experiments.mechanisms import colon_criteria
+    paper = [{"reduction": 0.0, "passed": False, "peak_pressure_kpa": 8.0}, {"reduction": 0.1, "passed": True, "peak_pressure_kpa": 6.5}]
+    assert all(ok for _, ok in colon_criteria(paper))
+    default = [{"reduction": 0.0, "passed": True, "peak_pressure_kpa": 2.0}, {"reduction": 0.1, "passed": True, "peak_pressure_kpa": 8.0}]
+    assert [ok for _, ok in colon_criteria(default)] == [False, False]

@@ -103,7 +103,7 @@ def test_reproduce_ubend_json_contract(tmp_path, capsys):
         assert r["trials"] == 1 and r["successes"] in (0, 1)
     assert {r["reduction"] for r in out["rows"]} == {0.0, 0.1, 0.2, 0.3}
     # the default (quasi-static) engine adds its equilibrium solves and how many ended above the tolerance
-    assert set(out) == {"rows", "solves"}
+    assert set(out) == {"rows", "solves", "physics"}  # and the physics it was made with (issue 26)
     assert out["solves"]["solves"] > 0 and 0 <= out["solves"]["solve_failures"] <= out["solves"]["solves"]
     # --anatomy adds the failed trials' jam anatomy from the same store, without rerunning
     assert main(["reproduce", "ubend", "--json", "--anatomy", "--trials", "1", "--db", str(tmp_path / "u.sqlite"), "--backend", "serial"]) == 0
