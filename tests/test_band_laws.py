@@ -51,8 +51,8 @@ def test_flattening_starts_at_wrinkling_saturates_at_three_times_it_and_is_deepe
 def test_flattening_shrinks_the_collision_radius_of_a_bent_body_and_its_collapse_moment():
     """The paper robot grown into a 30 mm U-bend: with flattening the segments in the bend collide with
     a smaller radius and their joints collapse at a lower moment; without it, neither changes."""
-    from evertgym.experiments.trial import make_trial_env
     from evertgym.experiments.paper import ubend_specs
+    from evertgym.experiments.trial import make_trial_env
     out = {}
     for f_max in (0.0, 0.2):
         spec = ubend_specs(1, radii=(30.0,), reductions=(0.0,), sim={"engine": "quasistatic", "flattening": f_max})[0]
