@@ -572,20 +572,21 @@ def cmd_optimize(args: argparse.Namespace) -> int:
     from evertgym.cli_guard import check_optimize_flags
 
     check_optimize_flags(args)
+    sim = _sim_overrides(args.sim)
     out = optimize_bands(
         {"family": args.scene, "params": params}, args.study, args.db, n_trials=args.trials, n_scenes=args.scenes,
         trials_per_scene=args.trials_per_scene, held_out_scenes=args.held_out, budget_kpa=args.budget_kpa,
-        policy=args.policy, backend=args.backend, progress=not args.json, sim=_sim_overrides(args.sim),
+        policy=args.policy, backend=args.backend, progress=not args.json, sim=sim,
     )
     if args.json:
-        print(dumps({**out, "physics": _physics(_sim_overrides(args.sim))}, default=float))
+        print(dumps({**out, "physics": _physics(sim)}, default=float))
         return 0
     print(f"best after {out['trials']} designs: {_best_design_text(out['best_design'], out['best_params'])}")
     print("held-out scenes:")
     for r in out["held_out"]:
         print(f"  {r['design_name']:>24}: success {r['success_rate']:.2f} [{r['success_ci_lo']:.2f}, {r['success_ci_hi']:.2f}] (n={r['n']})")
     _print_differences(_differences(out["held_out"], ["best", *(r["design_name"] for r in out["held_out"] if r["design_name"] != "best")]))
-    print(_physics(_sim_overrides(args.sim)))
+    print(_physics(sim))
     return 0
 
 

@@ -23,9 +23,9 @@ from pathlib import Path
 
 import numpy as np
 
-from evertgym.experiments.paper import UBEND_RADII_MM, UBEND_REDUCTIONS, _run, reproduce_colon, ubend_jam_rows, ubend_specs
+from evertgym.experiments.paper import UBEND_RADII_MM, UBEND_REDUCTIONS, _reduction, _run, reproduce_colon, ubend_jam_rows, ubend_specs
+from evertgym.scenes.families import UBEND_WALL_FRICTION
 from evertgym.scoring.stats import wilson_interval
-from evertgym.sim.band_laws import fold_excess
 
 #: The paper's no-band pass rates (measurements.json, u_bend_validation): the calibration rows.
 PAPER_BARE = {40.0: 1.0, 37.5: 1.0, 35.0: 0.583, 32.5: 0.333, 30.0: 0.0, 27.5: 0.0, 25.0: 0.0, 22.5: 0.0, 20.0: 0.0}
@@ -71,7 +71,6 @@ def physics_note(sim: dict | None = None) -> str:
     """One paragraph on the physics a U-bend or colon command runs with the SimConfig overrides
     ``sim``: the engine, which band-mechanism laws are on, what the casing friction was fitted on,
     and where the model and the paper disagree (measured by this study, docs/bands.md)."""
-    from evertgym.scenes.families import UBEND_WALL_FRICTION
     from evertgym.sim.config import SimConfig
 
     cfg = SimConfig(**(sim or {}))
@@ -95,8 +94,7 @@ def physics_note(sim: dict | None = None) -> str:
 def _rates(records) -> dict[tuple[float, float], tuple[int, int]]:
     out: dict[tuple[float, float], list[int]] = {}
     for rec in records:
-        red = rec.spec.design["bands"][0]["reduction"] if rec.spec.design["bands"] else 0.0
-        cell = out.setdefault((red, float(rec.spec.scene["params"]["radius_mm"])), [0, 0])
+        cell = out.setdefault((_reduction(rec), float(rec.spec.scene["params"]["radius_mm"])), [0, 0])
         cell[0] += bool(rec.result["success"])
         cell[1] += 1
     return {k: (v[0], v[1]) for k, v in out.items()}
@@ -125,7 +123,7 @@ def fit_casing(store: Path, cand: Candidate, trials: int = 12, grid=FIT_GRID, pr
         err = bare_error(rates)
         points.append({"casing": f, "error": round(err, 4), "bare": {str(r): rates[(0.0, r)][0] for r in FIT_RADII_MM}})
         log(f"  fit {cand.key}: casing {f:g}: error {err:.3f}  bare " + " ".join(f"{r:g}:{rates[(0.0, r)][0]}" for r in FIT_RADII_MM))
-    best = min(points, key=lambda p: (p["error"], abs(p["casing"] - 0.875)))
+    best = min(points, key=lambda p: (p["error"], abs(p["casing"] - UBEND_WALL_FRICTION)))
     return {"casing": best["casing"], "error": best["error"], "grid": points}
 
 
@@ -215,7 +213,7 @@ def fold_angles(cand: Candidate, casing: float, radius_mm: float, reduction: flo
     def record(env, info) -> bool:
         s = env.sim
         peak["joint"] = max(peak["joint"], float(np.max(np.abs(s.phi))) if len(s.phi) else 0.0)
-        peak["excess"] = max(peak["excess"], fold_excess(s.phi, s.seg_len, s._r_cell[: len(s.phi)]))
+        peak["excess"] = max(peak["excess"], s.fold_excess_rad)
         stalled[0] = stalled[0] + env.control_dt if s.stalled else 0.0
         return stalled[0] >= GIVE_UP_S
 

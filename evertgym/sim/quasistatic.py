@@ -227,6 +227,7 @@ class QuasiStaticSim(GrowingTube):
         self.phi = np.zeros(0)  # rad
         self._turn: float | None = None  # sum |phi| (rad), cached until the joints change
         self._excess: float | None = None  # the excess fold angle (rad), cached with it
+        self._band_turn: list[float] | None = None  # per band: the turning (rad) from the base to it, cached with it
         self.seg_len = np.zeros(0)  # m
         self.seg_rad = np.zeros(0)  # m
         self.length = 0.0
@@ -371,6 +372,7 @@ class QuasiStaticSim(GrowingTube):
         if self._turn is None:
             self._turn = float(np.sum(np.abs(self.phi)))
             self._excess = None
+            self._band_turn = None
         return self._turn
 
     def _required(self, tip_force: float) -> float:
@@ -378,17 +380,35 @@ class QuasiStaticSim(GrowingTube):
         (:mod:`evertgym.sim.growth`) with the band-mechanism laws switched on in ``cfg``
         (:mod:`evertgym.sim.band_laws`)."""
         cfg = self.cfg
-        p_y, area = self._tip_threshold() if cfg.band_eversion_threshold else self._bare_threshold
-        tail = tail_weight_pressure(self.design.diameter_m, self.design.wall_thickness_m, self.length) if self.vertical_tail else 0.0
+        p_y, area, tail = self._tip_terms()
         req = self.growth.required_pressure(p_y, tip_force, area, self._turning(), tail, None)
         if cfg.fold_pinch_per_rad > 0:
             req *= math.exp(cfg.fold_pinch_per_rad * self._fold_excess())
-        if cfg.band_fold:
-            tail_base = self._bare_threshold[0] * self._bare_threshold[1]
-            for j, r_b in self._everted_bands():
-                turn = float(np.sum(np.abs(self.phi[:j])))
-                req = max(req, band_fold_pressure(tip_force, tail_base * math.exp(cfg.bend_loss_per_rad * turn), r_b))
+        for r_b, t_band in self._folding_bands():
+            req = max(req, band_fold_pressure(tip_force, t_band, r_b))
         return req
+
+    def _tip_terms(self) -> tuple[float, float, float]:
+        """The growth law's tip terms: the threshold (Pa) and area (m^2) of the material at the tip
+        (the bare material's without ``band_eversion_threshold``), and the tail's weight (Pa)."""
+        p_y, area = self._tip_threshold() if self.cfg.band_eversion_threshold else self._bare_threshold
+        tail = tail_weight_pressure(self.design.diameter_m, self.design.wall_thickness_m, self.length) if self.vertical_tail else 0.0
+        return p_y, area, tail
+
+    def _folding_bands(self) -> list[tuple[float, float]]:
+        """With ``band_fold``: each wholly everted band's radius (m) and the tail's tension at it (N),
+        the bare threshold's force times the capstan loss of the turning from the base to the band
+        (:mod:`evertgym.sim.band_laws`); none without it."""
+        if not self.cfg.band_fold:
+            return []
+        self._turning()
+        if self._band_turn is None:
+            self._band_turn = [float(np.sum(np.abs(self.phi[:int((b.position_m - 0.5 * b.width_m) / self.ds)])))
+                               for b in self.design.bands]
+        tail_base = self._bare_threshold[0] * self._bare_threshold[1]
+        mu_b = self.cfg.bend_loss_per_rad
+        return [(self.design.radius_m * (1.0 - b.reduction), tail_base * math.exp(mu_b * turn))
+                for b, turn in zip(self.design.bands, self._band_turn) if b.position_m + 0.5 * b.width_m <= self.length]
 
     @property
     def push_capacity(self) -> float:
@@ -397,32 +417,24 @@ class QuasiStaticSim(GrowingTube):
         before it goes slack (the smaller); 0 when the pressure cannot evert the tip at all."""
         cfg = self.cfg
         p = max(self.pressure, 0.0)
-        p_y, area = self._tip_threshold() if cfg.band_eversion_threshold else self._bare_threshold
-        tail = tail_weight_pressure(self.design.diameter_m, self.design.wall_thickness_m, self.length) if self.vertical_tail else 0.0
+        p_y, area, tail = self._tip_terms()
         loss = math.exp(cfg.bend_loss_per_rad * self._turning() + cfg.fold_pinch_per_rad * self._fold_excess())
         cap = (p / loss - p_y - tail) * area
-        if cfg.band_fold:
-            tail_base = self._bare_threshold[0] * self._bare_threshold[1]
-            for j, r_b in self._everted_bands():
-                turn = float(np.sum(np.abs(self.phi[:j])))
-                cap = min(cap, p * math.pi * r_b * r_b - tail_base * math.exp(cfg.bend_loss_per_rad * turn))
+        for r_b, t_band in self._folding_bands():
+            cap = min(cap, p * math.pi * r_b * r_b - t_band)
         return max(cap, 0.0)
 
+    @property
+    def fold_excess_rad(self) -> float:
+        """The body's excess fold angle now (rad, :func:`~evertgym.sim.band_laws.fold_excess`)."""
+        return self._fold_excess()
+
     def _fold_excess(self) -> float:
-        """The body's excess fold angle (rad, :func:`~evertgym.sim.band_laws.fold_excess`), cached with
-        the turning until the joints change."""
-        if self._turn is None or self._excess is None:
-            self._turning()
+        """The excess fold angle, cached with the turning until the joints change."""
+        self._turning()
+        if self._excess is None:
             self._excess = fold_excess(self.phi, self.seg_len, self._r_cell[: len(self.phi)])
         return self._excess
-
-    def _everted_bands(self) -> list[tuple[int, float]]:
-        """The bands wholly everted (behind the tip): their first joint and their radius (m)."""
-        out = []
-        for b in self.design.bands:
-            if b.position_m + 0.5 * b.width_m <= self.length:
-                out.append((int((b.position_m - 0.5 * b.width_m) / self.ds), self.design.radius_m * (1.0 - b.reduction)))
-        return out
 
     def required_pressure(self) -> float:
         """Pressure (Pa) the tip needs to grow now (threshold, bend loss, the wall's reaction)."""
