@@ -2,7 +2,7 @@
 """The hand-written baselines side by side on the same held-out episodes of each env (no training).
 
     python scripts/baseline_table.py [--episodes 20] [--envs evertgym/Colon-v0,...] [--policies ...] [--workers 1]
-                                     [--env-kwargs JSON] [--json]
+                                     [--env-kwargs JSON] [--db runs/baseline_table.sqlite] [--json]
 
 For every env, every policy plays the same held-out episodes (episode and scene seeds
 1e9, 1e9 + 1, ...; training never draws them).  The default policies: ``constant`` at
@@ -14,7 +14,9 @@ Wilson 95% interval, mean time to goal over the successes (s), mean peak pressur
 mean max contact force (N) over all episodes, mean peak pressure with the tip in the scene's
 bend (kPa, over the episodes that reached it) and how many episodes peaked before the bend
 (a start-up or approach peak).  ``--env-kwargs`` applies env arguments to every policy (a
-randomised regulator lag: ``'{"regulator_tau_s": [0.1, 0.6]}'``).
+randomised regulator lag: ``'{"regulator_tau_s": [0.1, 0.6]}'``).  Every finished episode is
+kept in ``--db`` (keyed by policy, env, env kwargs, engine and model file), so a killed run
+resumes where it stopped and a longer run reuses the shorter one's episodes.
 """
 
 from __future__ import annotations
@@ -51,6 +53,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--workers", type=int, default=1, help="processes to spread the episodes over")
     ap.add_argument("--env-kwargs", default=None, metavar="JSON",
                     help='env arguments for every env and policy, e.g. \'{"regulator_tau_s": [0.1, 0.6]}\'')
+    ap.add_argument("--db", default="runs/baseline_table.sqlite",
+                    help="SQLite store of finished episodes (resume after a kill); default %(default)s")
     ap.add_argument("--json", action="store_true", help="print the rows as JSON")
     args = ap.parse_args(argv)
     envs = [e.strip() for e in args.envs.split(",") if e.strip()]
@@ -59,7 +63,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         for env_id in envs:
             kwargs = check_env_kwargs("--env-kwargs", args.env_kwargs, env_id)
-            out[env_id] = evaluate(policies, env_id, args.episodes, env_kwargs=kwargs, workers=args.workers)
+            out[env_id] = evaluate(policies, env_id, args.episodes, env_kwargs=kwargs, workers=args.workers,
+                                   db=args.db, progress=True)
     except ValueError as e:
         print(f"baseline_table: error: {e}", file=sys.stderr)
         return 2

@@ -14,6 +14,7 @@ from evertgym.agents import ConstantPressure, OperatorProtocol, make_baseline, p
 from evertgym.agents.evaluate import evaluate
 from evertgym.agents.train import load_config
 from evertgym.env import EversionEnv
+from evertgym.env.eversion_env import HELD_OUT_SEED_BASE
 
 
 def test_pressure_action_mapping():
@@ -287,6 +288,41 @@ def test_eval_over_worker_processes_gives_the_same_rows():
         evaluate(pols, "evertgym/UBend-v0", 3, workers=0)
 
 
+def test_eval_with_a_store_resumes_and_keeps_engines_apart(tmp_path, monkeypatch):
+    """With ``db`` every finished episode is stored: a rerun plays none again and gives the same
+    rows, a longer run plays only the new episodes, and the other engine is a different episode."""
+    import evertgym.agents.evaluate as ev
+
+    db = tmp_path / "eval.sqlite"
+    kw = {"max_episode_s": 1.0}
+    first = evaluate(["operator"], "evertgym/UBend-v0", 2, env_kwargs=kw, db=db)
+    plain = evaluate(["operator"], "evertgym/UBend-v0", 2, env_kwargs=kw)
+    assert json.dumps(first) == json.dumps(plain)
+    played: list[int] = []
+    real = ev.episode_trial
+    monkeypatch.setattr(ev, "episode_trial", lambda spec: played.append(spec.seed) or real(spec))
+    assert json.dumps(evaluate(["operator"], "evertgym/UBend-v0", 2, env_kwargs=kw, db=db)) == json.dumps(first)
+    assert played == []
+    evaluate(["operator"], "evertgym/UBend-v0", 3, env_kwargs=kw, db=db)
+    assert played == [HELD_OUT_SEED_BASE + 2]
+    played.clear()
+    evaluate(["operator"], "evertgym/UBend-v0", 1, env_kwargs={**kw, "sim_config": {"engine": "dynamic"}}, db=db)
+    assert played == [HELD_OUT_SEED_BASE]
+
+
+def test_eval_store_identity_names_the_engine_and_a_model_file():
+    from evertgym.agents.evaluate import _identities
+    from evertgym.agents.policies import for_env, resolve_policy_path
+    from evertgym.agents.trust import sha256_of
+
+    pols = ["operator", "colon_ppo_operator"]
+    descs = [for_env(p, "evertgym/Colon-v0") for p in pols]
+    ident = _identities(pols, descs, None)
+    assert ident[0] == {"engine": "quasistatic"}
+    assert ident[1] == {"engine": "quasistatic", "model_sha256": sha256_of(resolve_policy_path("colon_ppo_operator"))}
+    assert _identities(pols, descs, {"sim_config": {"engine": "dynamic"}})[0] == {"engine": "dynamic"}
+
+
 def _tiny_config(tmp_path: Path, n_timesteps: int = 512, name: str = "tiny_ppo") -> Path:
     cfg = tmp_path / f"{name}.toml"
     # 1 s episodes (10 steps): dozens of resets, so each side of a stop draws many scenes
@@ -449,10 +485,10 @@ def test_rollout_plays_the_held_out_episode_eval_plays(tmp_path):
     assert out["peak_pressure_kpa"] == round(info["peak_pressure_kpa"], 3)
 
 
-def test_baseline_table_script_prints_every_policy_on_the_same_held_out_episodes():
+def test_baseline_table_script_prints_every_policy_on_the_same_held_out_episodes(tmp_path):
     root = Path(__file__).resolve().parents[1]
     cmd = [sys.executable, str(root / "scripts" / "baseline_table.py"), "--envs", "evertgym/UBend-v0", "--episodes", "2",
-           "--policies", "constant:pressure_kpa=3;tuned;deflate"]
+           "--db", str(tmp_path / "b.sqlite"), "--policies", "constant:pressure_kpa=3;tuned;deflate"]
     out = subprocess.run(cmd + ["--json"], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr
     rows = json.loads(out.stdout)["evertgym/UBend-v0"]

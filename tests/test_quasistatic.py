@@ -91,6 +91,24 @@ def test_ubend_trial_converges_and_does_not_move_with_the_increment():
     assert np.linalg.norm(tips[0] - tips[1]) < 1e-3
 
 
+def test_an_increment_whose_solve_did_not_converge_is_retried_at_half_its_length():
+    """With Newton cut to 4 iterations, many growth increments do not converge at full length:
+    each is retried at half its length (counted in ``solve_retries``), none ends above the
+    tolerance, and the tip after 6 s is where the full 60-iteration solve puts it (within 1 mm)."""
+    tips, stats = [], []
+    for iters in (60, 4):
+        scene = make_scene(SceneSpec("ubend", {"radius_mm": 30.0}, 0))
+        sim = EversionSim(TubeDesign(length_m=0.9), scene=scene, config=SimConfig(engine="quasistatic", max_newton_iterations=iters))
+        sim.set_pressure_command(3000.0)
+        sim.run(6.0)
+        tips.append(sim.tip_position)
+        stats.append(sim.solve_stats)
+    assert stats[0]["solve_retries"] == 0 and stats[1]["solve_retries"] > 10
+    assert stats[0]["solve_failures"] == stats[1]["solve_failures"] == 0
+    assert stats[1]["max_residual_ratio"] <= 1e-3
+    assert np.linalg.norm(tips[0] - tips[1]) < 1e-3
+
+
 def test_the_colon_robot_grows_as_far_as_its_growth_law_drives_it():
     """Colon-v0 under random commands: the length the body grows is the length the eversion rate
     law asks for (the integral of ``growth_speed``), within the cut-backs at stalls.  Regression: a

@@ -9,18 +9,23 @@ from __future__ import annotations
 
 import functools
 import math
+from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 
 from evertgym.agents.baselines import Policy, run_episode
-from evertgym.agents.policies import check_observation_shape, for_env, make_policy, shipped_policies
+from evertgym.agents.policies import check_observation_shape, for_env, make_policy, resolve_policy_path, shipped_policies
+from evertgym.agents.trust import sha256_of
 from evertgym.env.eversion_env import HELD_OUT_SEED_BASE
 from evertgym.limits import MAX_EPISODES
 from evertgym.scoring.backends import process_backend, serial_backend
+from evertgym.scoring.runner import TrialsFailed, run_trials
 from evertgym.scoring.spec import TrialSpec, canonical_json
 from evertgym.scoring.stats import wilson_interval
+from evertgym.scoring.store import ResultStore
+from evertgym.sim.config import SimConfig
 
 
 @functools.lru_cache(maxsize=4)
@@ -41,9 +46,12 @@ def _policy_and_env(policy_json: str, env_id: str, kwargs_json: str) -> tuple[Po
 
 def episode_trial(spec: TrialSpec) -> dict:
     """Trial function of one evaluation episode: ``spec.scene`` is ``{"family": env id,
-    "params": env kwargs, "seed": episode seed}``; episode and scene seed are ``spec.seed``."""
+    "params": env kwargs, "seed": episode seed}``; episode and scene seed are ``spec.seed``.
+    The episode's info, plus ``stall_position_mm``: the insertion length (mm) where a failed
+    episode ended, ``None`` for a success (the scoring store's trial-result contract)."""
     policy, env = _policy_and_env(canonical_json(spec.policy), spec.scene["family"], canonical_json(spec.scene["params"]))
-    return run_episode(env, policy, spec.seed, options={"scene_seed": spec.seed})
+    info = run_episode(env, policy, spec.seed, options={"scene_seed": spec.seed})
+    return {**info, "stall_position_mm": None if info["success"] else float(info["insertion_length_mm"])}
 
 
 def _bend_columns(infos: list[dict]) -> dict:
@@ -56,20 +64,38 @@ def _bend_columns(infos: list[dict]) -> dict:
             "bend_reached_episodes": len(at_bend), "peak_before_bend_episodes": before}
 
 
+def _identities(policies: list[str | dict], descs: list[dict], env_kwargs: dict | None) -> list[dict]:
+    """What makes a stored episode reusable beyond its spec: the engine it runs on (the default's
+    when ``env_kwargs`` do not name one) and, for a trained model, its file's SHA-256."""
+    engine = dict((env_kwargs or {}).get("sim_config") or {}).get("engine", SimConfig().engine)
+    out = []
+    for desc, d in zip(policies, descs):
+        ident: dict[str, Any] = {"engine": engine}
+        name = d.get("name")
+        if name == "agent" or name in shipped_policies():
+            ident["model_sha256"] = sha256_of(resolve_policy_path(d["path"] if name == "agent" else name))
+        out.append(ident)
+    return out
+
+
 def _label(desc: str | dict) -> str:
     return desc if isinstance(desc, str) else str(desc.get("name", desc))
 
 
 def evaluate(policies: list[str | dict], env_id: str, episodes: int, env_kwargs: dict | None = None,
              seed_base: int = HELD_OUT_SEED_BASE, workers: int = 1, trust: bool = False,
-             progress: bool = False) -> list[dict]:
+             progress: bool = False, db: str | Path | None = None) -> list[dict]:
     """One row per policy: success rate (Wilson 95%), mean time to goal, peak pressure and
     max contact force over ``episodes`` episodes whose seeds (and scene seeds) are
     ``seed_base + i``, the same for every policy.  ``tuned`` is the operator tuned on
     ``env_id`` (:func:`evertgym.agents.policies.for_env`).  ``workers > 1`` spreads the episodes
     over that many processes; every episode is seeded, so the rows do not change.
     ``trust=True`` loads saved models that are not shipped policies (model files are code).
-    ``progress`` shows a bar over all policies' episodes (on stderr)."""
+    ``progress`` shows a bar over all policies' episodes (on stderr).  ``db``: a SQLite result
+    store (:class:`~evertgym.scoring.store.ResultStore`) that keeps every finished episode, so a
+    killed evaluation resumes where it stopped; an episode's identity holds the engine it runs
+    on and, for a trained model, the SHA-256 of its file, so a store is never reused for
+    another engine or a retrained model."""
     from tqdm import tqdm
 
     if not (isinstance(episodes, int) and 1 <= episodes <= MAX_EPISODES):
@@ -87,19 +113,31 @@ def evaluate(policies: list[str | dict], env_id: str, episodes: int, env_kwargs:
             policy, env = _policy_and_env(canonical_json({**d, **({"trust": True} if trust else {})}), env_id,
                                           canonical_json(dict(env_kwargs or {})))
             check_observation_shape(policy, env, _label(desc))
+    identity = _identities(policies, descs, env_kwargs) if db is not None else [{} for _ in policies]
     specs = [
-        TrialSpec(design={}, design_name=env_id, scene={"family": env_id, "params": dict(env_kwargs or {}), "seed": seed_base + i},
+        TrialSpec(design={}, design_name=env_id,
+                  scene={"family": env_id, "params": dict(env_kwargs or {}), "seed": seed_base + i, **ident},
                   policy={**d, **({"trust": True} if trust else {})}, seed=seed_base + i, index=i,
                   group=_label(desc))
-        for desc, d in zip(policies, descs) for i in range(episodes)
+        for desc, d, ident in zip(policies, descs, identity) for i in range(episodes)
     ]
-    backend = process_backend if workers > 1 else serial_backend
     infos: dict[str, dict] = {}
-    for spec, out in tqdm(backend(episode_trial, specs, min(workers, len(specs))), total=len(specs), desc="eval",
-                          unit="episode", disable=not progress):
-        if out.error is not None:
-            raise RuntimeError(f"policy {spec.group!r}, episode seed {spec.seed}: {out.error}")
-        infos[spec.key] = out.result
+    if db is not None:
+        with ResultStore(db) as store:
+            try:
+                records = run_trials(specs, episode_trial, store, backend="process" if workers > 1 else "serial",
+                                     workers=workers, progress=progress)
+            except TrialsFailed as e:
+                f = e.failures[0]
+                raise RuntimeError(f"policy {f.spec.group!r}, episode seed {f.spec.seed}: {f.error}") from None
+            infos = {r.spec.key: r.result for r in records}
+    else:
+        backend = process_backend if workers > 1 else serial_backend
+        for spec, out in tqdm(backend(episode_trial, specs, min(workers, len(specs))), total=len(specs), desc="eval",
+                              unit="episode", disable=not progress):
+            if out.error is not None:
+                raise RuntimeError(f"policy {spec.group!r}, episode seed {spec.seed}: {out.error}")
+            infos[spec.key] = out.result
     rows = []
     for k, desc in enumerate(policies):
         episode_infos = [infos[s.key] for s in specs[k * episodes:(k + 1) * episodes]]

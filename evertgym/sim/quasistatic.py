@@ -150,10 +150,12 @@ class SolveStats:
     newton_iterations: int = 0
     max_residual_ratio: float = 0.0
     rejoined: int = 0
+    retried: int = 0
 
     def to_dict(self) -> dict:
         return {"solves": self.solves, "solve_failures": self.failures, "newton_iterations": self.newton_iterations,
-                "max_residual_ratio": self.max_residual_ratio, "rejoined_joints": self.rejoined}
+                "max_residual_ratio": self.max_residual_ratio, "rejoined_joints": self.rejoined,
+                "solve_retries": self.retried}
 
 
 class QuasiStaticSim(GrowingTube):
@@ -258,6 +260,7 @@ class QuasiStaticSim(GrowingTube):
         # did not; inf: any further growth overlaps a wall): the material about to evert needs it
         self._req_ahead = 0.0
         self._stats = SolveStats()
+        self._retry_ok = self._retry_wanted = False  # set around a growth increment's solve (_advance)
         self._fric = {"s": np.zeros(0), "wall": np.zeros(0, np.int64), "wl": np.zeros((0, 2)), "t": np.zeros((0, 2)), "ml": np.zeros(0)}
         self._seg_force = np.zeros((0, 2))  # per segment: sum of wall forces (N), sum of p x f (N m)
         self._seg_moment = np.zeros(0)
@@ -363,7 +366,8 @@ class QuasiStaticSim(GrowingTube):
     def solve_stats(self) -> dict:
         """Counts of the equilibrium solves: ``solves``, ``solve_failures`` (ended above the
         tolerance), ``newton_iterations``, ``max_residual_ratio`` (largest final residual over the
-        tolerance's scale), ``rejoined_joints``."""
+        tolerance's scale), ``rejoined_joints``, ``solve_retries`` (growth increments whose solve
+        did not converge and were retried at half the length; not failures)."""
         return self._stats.to_dict()
 
     # ---- pressure, growth, clock -----------------------------------------------------
@@ -551,8 +555,11 @@ class QuasiStaticSim(GrowingTube):
             dl = min(dl, remaining)
             start = self._snapshot()
             f0 = self.tip_force
+            self._retry_ok, self._retry_wanted = dl > dl_min, False
             ok = self._grow(dl) and self._solve()
-            if dl > dl_min and (not ok or abs(self.tip_force - f0) > f_step):  # a wall ahead: smaller steps
+            self._retry_ok = False
+            # a wall ahead, or an increment whose equilibrium did not converge: smaller steps
+            if dl > dl_min and (not ok or self._retry_wanted or abs(self.tip_force - f0) > f_step):
                 self._restore(start)
                 dl = max(0.5 * dl, dl_min)
                 continue
@@ -744,6 +751,8 @@ class QuasiStaticSim(GrowingTube):
         for _ in range(6):  # a held joint out of balance widens the window
             if not self._solve_window(a, tol_m, tol_f):
                 return False
+            if self._retry_wanted:
+                return True
             worst = self._held_imbalance(a, tol_m)
             if worst is None:
                 break
@@ -846,6 +855,10 @@ class QuasiStaticSim(GrowingTube):
             return False
         self._stats.solves += 1
         ratio = max(res_m / tol_m, res_f / tol_f) * cfg.solver_tolerance  # largest residual over p pi r^2 (r^3)
+        if status != qk.CONVERGED and self._retry_ok:  # the caller retries the increment at half its length
+            self._stats.retried += 1
+            self._retry_wanted = True
+            return True
         self._stats.max_residual_ratio = max(self._stats.max_residual_ratio, ratio)
         if status != qk.CONVERGED:
             self._stats.failures += 1
