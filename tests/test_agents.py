@@ -317,10 +317,10 @@ def test_eval_store_identity_names_the_engine_and_a_model_file():
 
     pols = ["operator", "colon_ppo_operator"]
     descs = [for_env(p, "evertgym/Colon-v0") for p in pols]
-    ident = _identities(pols, descs, None)
+    ident = _identities(descs, None)
     assert ident[0] == {"engine": "quasistatic"}
     assert ident[1] == {"engine": "quasistatic", "model_sha256": sha256_of(resolve_policy_path("colon_ppo_operator"))}
-    assert _identities(pols, descs, {"sim_config": {"engine": "dynamic"}})[0] == {"engine": "dynamic"}
+    assert _identities(descs, {"sim_config": {"engine": "dynamic"}})[0] == {"engine": "dynamic"}
 
 
 def _tiny_config(tmp_path: Path, n_timesteps: int = 512, name: str = "tiny_ppo") -> Path:

@@ -64,12 +64,12 @@ def _bend_columns(infos: list[dict]) -> dict:
             "bend_reached_episodes": len(at_bend), "peak_before_bend_episodes": before}
 
 
-def _identities(policies: list[str | dict], descs: list[dict], env_kwargs: dict | None) -> list[dict]:
+def _identities(descs: list[dict], env_kwargs: dict | None) -> list[dict]:
     """What makes a stored episode reusable beyond its spec: the engine it runs on (the default's
     when ``env_kwargs`` do not name one) and, for a trained model, its file's SHA-256."""
     engine = dict((env_kwargs or {}).get("sim_config") or {}).get("engine", SimConfig().engine)
     out = []
-    for desc, d in zip(policies, descs):
+    for d in descs:
         ident: dict[str, Any] = {"engine": engine}
         name = d.get("name")
         if name == "agent" or name in shipped_policies():
@@ -113,7 +113,7 @@ def evaluate(policies: list[str | dict], env_id: str, episodes: int, env_kwargs:
             policy, env = _policy_and_env(canonical_json({**d, **({"trust": True} if trust else {})}), env_id,
                                           canonical_json(dict(env_kwargs or {})))
             check_observation_shape(policy, env, _label(desc))
-    identity = _identities(policies, descs, env_kwargs) if db is not None else [{} for _ in policies]
+    identity = _identities(descs, env_kwargs) if db is not None else [{} for _ in policies]
     specs = [
         TrialSpec(design={}, design_name=env_id,
                   scene={"family": env_id, "params": dict(env_kwargs or {}), "seed": seed_base + i, **ident},
