@@ -632,6 +632,7 @@ def cmd_train(args: argparse.Namespace) -> int:
 
 def cmd_eval(args: argparse.Namespace) -> int:
     from evertgym.agents.evaluate import evaluate
+    from evertgym.agents.train import trained_engine
     from evertgym.cli_guard import check_eval_flags
     from evertgym.env.eversion_env import HELD_OUT_SEED_BASE, VALIDATION_SEED_BASE
 
@@ -639,10 +640,12 @@ def cmd_eval(args: argparse.Namespace) -> int:
     seed_base = VALIDATION_SEED_BASE if args.validation else HELD_OUT_SEED_BASE
     rows = evaluate(args.policies, args.env, args.episodes, env_kwargs=env_kwargs, workers=args.workers,
                     trust=args.trust_model, progress=not args.json, seed_base=seed_base)
+    engine = trained_engine(env_kwargs or {})
     if args.json:
-        print(dumps({"rows": rows, "seed_base": seed_base}))
+        print(dumps({"rows": rows, "seed_base": seed_base, "env_id": args.env, "env_kwargs": env_kwargs or {}, "engine": engine}))
         return 0
-    print(f"{'validation' if args.validation else 'held-out'} episodes: episode and scene seeds {seed_base}-{seed_base + args.episodes - 1}")
+    print(f"{'validation' if args.validation else 'held-out'} episodes: episode and scene seeds {seed_base}-{seed_base + args.episodes - 1}, "
+          f"{engine} engine")
     width = max([30] + [len(r["policy"]) for r in rows])  # a name is never cut
     print(f"{'policy':{width}s} {'episodes':>8s} {'success':>8s} {'95% CI':>15s} {'time_to_goal_s':>14s} {'peak_kpa':>9s} "
           f"{'max_force_n':>11s} {'bend_peak_kpa':>13s} {'peak<bend':>9s}")
@@ -674,14 +677,17 @@ def cmd_policies(args: argparse.Namespace) -> int:
     table = []
     for r in rows:
         obs = ", ".join(f"{k}={json.dumps(v)}" for k, v in r["observations"].items()) or "the env's defaults"
+        if r["senses_tip"]:
+            obs += " (senses the tip)"
         h = r["held_out"]
         if h is None:
             held = "-"
         else:
             lag = f", {json.dumps(h['env_kwargs'])}" if h["env_kwargs"] else ""
-            held = f"{h['successes']}/{h['episodes']} [{h['ci_low']:.2f}, {h['ci_high']:.2f}]{lag}"
-        table.append((r["name"], r["env_id"] or "-", obs, "mean" if r["deterministic"] else "sampled", shown(r["config"]), held))
-    head = ("policy", "env", "observations", "actions", "training config", "held-out success (Wilson 95%, eval env kwargs)")
+            held = f"{h['successes']}/{h['episodes']} [{h['ci_low']:.2f}, {h['ci_high']:.2f}] on {h['engine']}{lag}"
+        table.append((r["name"], r["env_id"] or "-", obs, "mean" if r["deterministic"] else "sampled", r["engine"], shown(r["config"]), held))
+    head = ("policy", "env", "observations", "actions", "trained on", "training config",
+            "held-out success (Wilson 95%, engine, eval env kwargs)")
     widths = [max(len(row[i]) for row in [head, *table]) for i in range(len(head) - 1)]
     for row in [head, *table]:
         print("  ".join(f"{c:{w}s}" for c, w in zip(row, widths)) + "  " + row[-1])

@@ -23,7 +23,7 @@ OUT = ROOT / "agents" / "held_out.json"
 
 
 def build() -> dict:
-    """``{"source": ..., "policies": {name: {env_id, env_kwargs, episodes, successes, ci_low, ci_high, source}}}``."""
+    """``{"source": ..., "policies": {name: {env_id, env_kwargs, engine, episodes, successes, ci_low, ci_high, source}}}``."""
     names = sorted(p.parent.name for p in (ROOT / "agents").glob("*/final.zip"))
     out: dict[str, dict] = {}
     for f in sorted((ROOT / "docs").glob("*_eval.json")):
@@ -32,7 +32,9 @@ def build() -> dict:
             for name in names:
                 if row["policy"] in (name, f"agents/{name}/final.zip") and name not in out:
                     env_id = data.get("env_id") or json.loads((ROOT / "agents" / name / "final_env.json").read_text())["env_id"]
-                    out[name] = {"env_id": env_id, "env_kwargs": data.get("env_kwargs", {}), "episodes": row["episodes"],
+                    # the engine the episodes ran on; files without the key predate 0.3.0, whose default was the dynamic engine
+                    out[name] = {"env_id": env_id, "env_kwargs": data.get("env_kwargs", {}), "engine": data.get("engine", "dynamic"),
+                                 "episodes": row["episodes"],
                                  "successes": round(row["success_rate"] * row["episodes"]), "ci_low": round(row["ci_low"], 4),
                                  "ci_high": round(row["ci_high"], 4), "source": f"docs/{f.name}"}
     missing = sorted(set(names) - set(out))

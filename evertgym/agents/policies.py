@@ -242,9 +242,12 @@ def policy_cards() -> list[dict]:
     observation flags it was trained with (``observations``), whether it acts by its mean
     (``deterministic``), its training config (``config``, a path; None if not shipped) and
     its held-out success (``held_out``: ``episodes``, ``successes``, ``ci_low``,
-    ``ci_high``, the evaluation's ``env_kwargs`` and ``source``, from the shipped
-    ``held_out.json`` written by ``scripts/held_out_index.py``; None if not listed).
-    Only JSON is read: no model is loaded."""
+    ``ci_high``, the evaluation's ``env_kwargs``, ``engine`` and ``source``, from the shipped
+    ``held_out.json`` written by ``scripts/held_out_index.py``; None if not listed), the engine
+    it was trained on (``engine``: its ``final_env.json``'s, else the one its ``sim_config``
+    names, else the default) and whether it senses the tip (``senses_tip``: a tip force sensor,
+    which an operator does not have).  Only JSON is read: no model is loaded."""
+    from evertgym.agents.train import trained_engine
     from evertgym.env.eversion_env import OBSERVATION_KWARGS
 
     index = shipped_dir() / "held_out.json"
@@ -258,6 +261,8 @@ def policy_cards() -> list[dict]:
             "observations": {k: v for k, v in meta.get("env_kwargs", {}).items() if k in OBSERVATION_KWARGS},
             "deterministic": bool(meta.get("deterministic", True)), "config": str(config) if config.is_file() else None,
             "held_out": held_out.get(name),
+            "engine": meta.get("engine") or trained_engine(meta.get("env_kwargs", {})),
+            "senses_tip": bool(meta.get("env_kwargs", {}).get("tip_sensing", False)),
         })
     return rows
 

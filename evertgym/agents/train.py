@@ -64,6 +64,14 @@ ALGOS = ("ppo", "sac")
 ROLLING_EPISODES = 100
 
 
+def trained_engine(env_kwargs: dict) -> str:
+    """The simulator engine an env built with ``env_kwargs`` runs: the one its ``sim_config``
+    names, else this release's default (``SimConfig().engine``)."""
+    from evertgym.sim.config import SimConfig
+
+    return str(dict(env_kwargs.get("sim_config") or {}).get("engine", SimConfig().engine))
+
+
 def load_config(path: str | Path, seed: int | None = None) -> dict:
     """Read and validate a training config (errors name the field).  ``seed`` replaces the
     config's seed and names the run ``<name>_seed<seed>``, so the seeds of one config train
@@ -251,7 +259,8 @@ def train(config_path: str | Path, out_dir: str | Path = "runs", resume: bool | 
     (run_dir / "config.json").write_text(json.dumps({"config": cfg, "argv": sys.argv, "resume": resumed}, indent=2, default=str))
     # the observation options the policy was trained with travel with it and its checkpoints
     # (and whether it acts by its mean or by sampling, the config's ``deterministic``)
-    meta = {"env_id": cfg["env_id"], "env_kwargs": cfg.get("env_kwargs", {}), "deterministic": cfg.get("deterministic", True)}
+    meta = {"env_id": cfg["env_id"], "env_kwargs": cfg.get("env_kwargs", {}), "deterministic": cfg.get("deterministic", True),
+            "engine": trained_engine(cfg.get("env_kwargs", {}))}
 
     class _Checkpoints(CheckpointCallback):
         """SB3's checkpoints, each with ``<stem>_env.json`` (the env it was trained on) beside it."""
