@@ -69,6 +69,12 @@ _REJOIN_MEMORY = 50
 _PIECE_OUTLINE_TOLERANCE_M = 1e-4
 #: Largest node displacement (m) of one Newton step (keeps the barrier's line search local).
 _MAX_MOVE_M = 0.002
+#: A solve that did not converge in ``max_newton_iterations`` and cannot be shortened (the shortest
+#: growth increment, a cut-back, a pressure change) runs again from its start with this many times
+#: the budget.  Near a snap-through the equilibrium lies far away and the step cap above makes Newton
+#: walk there: one Colon-v0 episode's solves at the shortest increment needed 300-1000 iterations,
+#: and at 60 they ended 0.2-36 p pi r^2 out of balance.
+_ESCALATION = 20
 #: Root-finding steps (at most) that cut an increment back to the length where the drive balances the wall.
 _BISECTIONS = 10
 #: Largest change of the tip's reaction against growth over one increment, as a fraction of p pi r^2.
@@ -151,11 +157,12 @@ class SolveStats:
     max_residual_ratio: float = 0.0
     rejoined: int = 0
     retried: int = 0
+    escalated: int = 0
 
     def to_dict(self) -> dict:
         return {"solves": self.solves, "solve_failures": self.failures, "newton_iterations": self.newton_iterations,
                 "max_residual_ratio": self.max_residual_ratio, "rejoined_joints": self.rejoined,
-                "solve_retries": self.retried}
+                "solve_retries": self.retried, "solve_escalations": self.escalated}
 
 
 class QuasiStaticSim(GrowingTube):
@@ -367,7 +374,10 @@ class QuasiStaticSim(GrowingTube):
         """Counts of the equilibrium solves: ``solves``, ``solve_failures`` (ended above the
         tolerance), ``newton_iterations``, ``max_residual_ratio`` (largest final residual over the
         tolerance's scale), ``rejoined_joints``, ``solve_retries`` (growth increments whose solve
-        did not converge and were retried at half the length; not failures)."""
+        did not converge and were retried at half the length; not failures), ``solve_escalations``
+        (solves that could not be shortened, a shortest increment, a cut-back or a pressure
+        change, and were run again from their start with :data:`_ESCALATION` times the Newton
+        budget)."""
         return self._stats.to_dict()
 
     # ---- pressure, growth, clock -----------------------------------------------------
@@ -844,12 +854,22 @@ class QuasiStaticSim(GrowingTube):
         j_all = self._entry_segments(fric, a)
         in_window = j_all >= a
         mine = in_window & (sel_pos[fric["wall"]] >= 0)
-        (status, iters, res_m, res_f, e_s, e_w, e_wl, e_t, e_ml, acc_f, acc_m, tip, rows) = qk.solve_increment(
-            theta0, n0, phi, phi_ref, seg_len, seg_rad, s_nodes, k_j, mw_j, *_LAW[:3], _LAW[3], RESIDUAL_STIFFNESS_FRACTION,
-            wa, wb, wpiece, walls.vertex[sel], walls.radius[sel], walls.friction[sel], robot_mu, pc0, u, kaa, fh,
-            travel, k_travel, fric["s"][mine], sel_pos[fric["wall"][mine]], np.ascontiguousarray(fric["wl"][mine]),
-            np.ascontiguousarray(fric["t"][mine]), fric["ml"][mine], cfg.barrier_gap_m, self._kappa, cfg.friction_slip_m, tol_m,
-            tol_f, cfg.max_newton_iterations, _MAX_MOVE_M, cfg.friction_lag_iterations)
+        u_in = u.copy()
+        iters = 0
+        for budget in (cfg.max_newton_iterations, _ESCALATION * cfg.max_newton_iterations):
+            (status, it, res_m, res_f, e_s, e_w, e_wl, e_t, e_ml, acc_f, acc_m, tip, rows) = qk.solve_increment(
+                theta0, n0, phi, phi_ref, seg_len, seg_rad, s_nodes, k_j, mw_j, *_LAW[:3], _LAW[3], RESIDUAL_STIFFNESS_FRACTION,
+                wa, wb, wpiece, walls.vertex[sel], walls.radius[sel], walls.friction[sel], robot_mu, pc0, u, kaa, fh,
+                travel, k_travel, fric["s"][mine], sel_pos[fric["wall"][mine]], np.ascontiguousarray(fric["wl"][mine]),
+                np.ascontiguousarray(fric["t"][mine]), fric["ml"][mine], cfg.barrier_gap_m, self._kappa, cfg.friction_slip_m, tol_m,
+                tol_f, budget, _MAX_MOVE_M, cfg.friction_lag_iterations)
+            iters += it
+            if status in (qk.CONVERGED, qk.INFEASIBLE_START) or self._retry_ok:
+                break  # (a growth increment that can still be halved is retried shorter by the caller)
+            # the increment cannot be shortened: the same solve again, from the same start, with a larger budget
+            self._stats.escalated += 1
+            phi[:] = phi_ref
+            u[:] = u_in
         self._stats.newton_iterations += iters
         if status == qk.INFEASIBLE_START:
             return False
