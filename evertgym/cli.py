@@ -564,7 +564,7 @@ def cmd_score(args: argparse.Namespace) -> int:
 
 
 def cmd_optimize(args: argparse.Namespace) -> int:
-    from evertgym.experiments.optimize import optimize_bands
+    from evertgym.experiments.optimize import BARE_NAME, PAPER_NAME, optimize_bands
 
     try:
         params = json.loads(args.scene_params)
@@ -579,6 +579,9 @@ def cmd_optimize(args: argparse.Namespace) -> int:
         trials_per_scene=args.trials_per_scene, held_out_scenes=args.held_out, budget_kpa=args.budget_kpa,
         policy=args.policy, backend=args.backend, progress=not args.json, sim=sim,
     )
+    # the best against the paper's design and the bare robot, and the paper's design against the bare robot
+    out["differences"] = (_differences(out["held_out"], ["best", PAPER_NAME, BARE_NAME])
+                          + _differences(out["held_out"], [PAPER_NAME, BARE_NAME]))
     if args.json:
         print(dumps({**out, "physics": _physics(sim)}, default=float))
         return 0
@@ -586,7 +589,7 @@ def cmd_optimize(args: argparse.Namespace) -> int:
     print("held-out scenes:")
     for r in out["held_out"]:
         print(f"  {r['design_name']:>24}: success {r['success_rate']:.2f} [{r['success_ci_lo']:.2f}, {r['success_ci_hi']:.2f}] (n={r['n']})")
-    _print_differences(_differences(out["held_out"], ["best", *(r["design_name"] for r in out["held_out"] if r["design_name"] != "best")]))
+    _print_differences(out["differences"])
     print(_physics(sim))
     return 0
 

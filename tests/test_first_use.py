@@ -267,6 +267,25 @@ def test_optimize_prints_a_design_without_bands_as_having_no_spacing_or_reductio
     assert "best succeeds more often than paper 3 x 10% / 50 mm" in text
 
 
+def test_optimize_tests_the_best_and_the_paper_design_against_the_bare_robot(monkeypatch, capsys):
+    import evertgym.experiments.optimize as optimize
+
+    rows = [{"design_name": name, "n": 16, "successes": k, "success_rate": k / 16, "success_ci_lo": 0.0, "success_ci_hi": 1.0}
+            for name, k in (("best", 15), ("paper 3 x 10% / 50 mm", 9), ("no bands", 2))]
+    out = {"best_params": {"n_bands": 3, "spacing_mm": 50.0, "reduction": 0.12, "last_band_mm": 300.0},
+           "best_design": {"tube": {}, "bands": [{"position_mm": p, "reduction": 0.12} for p in (200.0, 250.0, 300.0)]},
+           "held_out": rows, "trials": 3}
+    monkeypatch.setattr(optimize, "optimize_bands", lambda *a, **k: dict(out))
+    assert main(["optimize", "--trials", "3"]) == 0
+    text = capsys.readouterr().out
+    assert "best - no bands: +0.81" in text and "paper 3 x 10% / 50 mm - no bands: +0.44" in text
+    assert "paper 3 x 10% / 50 mm succeeds more often than no bands" in text
+    assert main(["optimize", "--trials", "3", "--json"]) == 0
+    diff = json.loads(capsys.readouterr().out)["differences"]
+    assert [(d["design"], d["other"]) for d in diff] == [("best", "paper 3 x 10% / 50 mm"), ("best", "no bands"),
+                                                         ("paper 3 x 10% / 50 mm", "no bands")]
+
+
 # ---- 7. a clone named evertgym in the current folder ----------------------------------------------
 def test_the_package_imports_from_the_folder_that_holds_a_clone_named_evertgym(tmp_path):
     clone = tmp_path / "evertgym"  # what Python sees of a clone: a folder without __init__.py

@@ -224,6 +224,6 @@ def test_optimize_resumes_its_study_and_compares_with_the_paper_design(tmp_path)
     again = optimize_bands(n_trials=3, **kw)  # resumes: one more design, not three
     assert first["trials"] == 2 and again["trials"] == 3
     names = [r["design_name"] for r in again["held_out"]]
-    assert set(names) == {"best", "paper 3 x 10% / 50 mm"}
+    assert set(names) == {"best", "paper 3 x 10% / 50 mm", "no bands"}
     with pytest.raises(ValueError, match="budget_kpa"):
         optimize_bands(n_trials=1, budget_kpa=9.0, **kw)

@@ -22,6 +22,9 @@ from evertgym.scoring.stats import summarize
 from evertgym.scoring.store import ResultStore
 
 HELD_OUT_FIRST_SEED = 10_000
+#: Names of the two reference designs scored beside the best on the held-out scenes.
+PAPER_NAME = "paper 3 x 10% / 50 mm"
+BARE_NAME = "no bands"
 
 
 def band_design(n_bands: int, spacing_mm: float, reduction: float, last_band_mm: float, diameter_mm: float, length_mm: float) -> dict:
@@ -48,8 +51,9 @@ def optimize_bands(
     progress: bool = False,
     sim: dict | None = None,
 ) -> dict:
-    """Run (or resume) the search and score its best design against the paper's on held-out
-    scenes: ``{"best_params", "best_design", "held_out", "trials"}``.  ``progress`` shows a bar
+    """Run (or resume) the search and score its best design, the paper's (:data:`PAPER_NAME`) and
+    the bare robot (:data:`BARE_NAME`) on held-out scenes: ``{"best_params", "best_design",
+    "held_out", "trials"}``.  ``progress`` shows a bar
     over the designs with the best score so far, then one over the held-out trials (stderr).
     ``sim`` overrides :class:`~evertgym.sim.config.SimConfig` fields in every trial; the study is
     kept per engine (``bands-<engine>`` in ``study_path``), so a study of one engine never
@@ -99,5 +103,6 @@ def optimize_bands(
     best = study.best_params
     best_design = band_design(best["n_bands"], best["spacing_mm"], best["reduction"], best["last_band_mm"], diameter_mm, length_mm)
     paper = band_design(3, 50.0, 0.1, 300.0, diameter_mm, length_mm)
-    rows = score({"best": best_design, "paper 3 x 10% / 50 mm": paper}, HELD_OUT_FIRST_SEED, held_out_scenes)
+    bare = band_design(0, 50.0, 0.1, 300.0, diameter_mm, length_mm)
+    rows = score({"best": best_design, PAPER_NAME: paper, BARE_NAME: bare}, HELD_OUT_FIRST_SEED, held_out_scenes)
     return {"best_params": best, "best_design": best_design, "held_out": rows, "trials": len(study.trials)}
