@@ -643,7 +643,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
     env_kwargs = check_eval_flags(args)
     seed_base = VALIDATION_SEED_BASE if args.validation else HELD_OUT_SEED_BASE
     rows = evaluate(args.policies, args.env, args.episodes, env_kwargs=env_kwargs, workers=args.workers,
-                    trust=args.trust_model, progress=not args.json, seed_base=seed_base)
+                    trust=args.trust_model, progress=not args.json, seed_base=seed_base, db=args.db)
     engine = trained_engine(env_kwargs or {})
     if args.json:
         print(dumps({"rows": rows, "seed_base": seed_base, "env_id": args.env, "env_kwargs": env_kwargs or {}, "engine": engine}))
@@ -854,6 +854,9 @@ def build_parser() -> argparse.ArgumentParser:
                     help="play validation episodes (seeds 2e9 + i) instead of the held-out ones (1e9 + i): neither is ever "
                          "a training scene; choose settings (an action mode, a checkpoint) on these, report on held-out")
     ev.add_argument("--json", action="store_true", help=_JSON_HELP)
+    ev.add_argument("--db", default=None, metavar="PATH",
+                    help="keep every finished episode in this SQLite store, so a killed evaluation resumes "
+                         "(an episode's identity holds the engine and a model file's SHA-256)")
     ev.add_argument("--workers", type=int, default=1, help="processes to spread the episodes over")
     ev.add_argument("--force-workers", action="store_true", help="allow more --workers than CPUs")
     ev.add_argument("--trust-model", action="store_true", help="load a model file that is not a shipped policy: model files are code "

@@ -213,6 +213,8 @@ def check_eval_flags(args: argparse.Namespace) -> dict:
     env_kwargs = check_env_kwargs("--env-kwargs", getattr(args, "env_kwargs", None), args.env)
     for desc in args.policies:
         check_policy("policy", desc, args.trust_model)
+    if getattr(args, "db", None) is not None:
+        check_output_file("--db", args.db)
     return env_kwargs
 
 

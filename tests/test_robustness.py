@@ -239,6 +239,7 @@ def _cli_cases(tmp: Path) -> list[tuple[list[str], str]]:
         (["eval", "operator", "--env", "evertgym/UBend-v0", "--workers", "1000"], "--workers"),
         (["eval", "operator", "--env", "evertgym/UBend-v0", "--workers", "0"], "--workers"),
         (["eval", "operator", "--env", "evertgym/UBend-v0", "--env-kwargs", "{bad"], "--env-kwargs"),
+        (["eval", "operator", "--env", "evertgym/UBend-v0", "--db", "/proc/nope/e.sqlite"], "--db"),
         (["rollout", "operator", "--env", "evertgym/UBend-v0", "--out", str(tmp / "r.gif"), "--env-kwargs", "[]"], "--env-kwargs"),
         (["eval", "operator", "--env", "evertgym/UBend-v0", "--env-kwargs", "[1]"], "--env-kwargs"),
         (["eval", "operator", "--env", "evertgym/UBend-v0", "--env-kwargs", '{"nope": 1}'], "nope"),
