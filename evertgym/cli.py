@@ -636,15 +636,14 @@ def cmd_train(args: argparse.Namespace) -> int:
 
 def cmd_eval(args: argparse.Namespace) -> int:
     from evertgym.agents.evaluate import evaluate
-    from evertgym.agents.train import trained_engine
     from evertgym.cli_guard import check_eval_flags
-    from evertgym.env.eversion_env import HELD_OUT_SEED_BASE, VALIDATION_SEED_BASE
+    from evertgym.env.eversion_env import HELD_OUT_SEED_BASE, VALIDATION_SEED_BASE, engine_of
 
     env_kwargs = check_eval_flags(args)
     seed_base = VALIDATION_SEED_BASE if args.validation else HELD_OUT_SEED_BASE
     rows = evaluate(args.policies, args.env, args.episodes, env_kwargs=env_kwargs, workers=args.workers,
                     trust=args.trust_model, progress=not args.json, seed_base=seed_base, db=args.db)
-    engine = trained_engine(env_kwargs or {})
+    engine = engine_of(env_kwargs or {})
     if args.json:
         print(dumps({"rows": rows, "seed_base": seed_base, "env_id": args.env, "env_kwargs": env_kwargs or {}, "engine": engine}))
         return 0

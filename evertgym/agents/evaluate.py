@@ -18,14 +18,13 @@ import numpy as np
 from evertgym.agents.baselines import Policy, run_episode
 from evertgym.agents.policies import check_observation_shape, for_env, make_policy, resolve_policy_path, shipped_policies
 from evertgym.agents.trust import sha256_of
-from evertgym.env.eversion_env import HELD_OUT_SEED_BASE
+from evertgym.env.eversion_env import HELD_OUT_SEED_BASE, engine_of
 from evertgym.limits import MAX_EPISODES
 from evertgym.scoring.backends import process_backend, serial_backend
 from evertgym.scoring.runner import TrialsFailed, run_trials
 from evertgym.scoring.spec import TrialSpec, canonical_json
 from evertgym.scoring.stats import wilson_interval
 from evertgym.scoring.store import ResultStore
-from evertgym.sim.config import SimConfig
 
 
 @functools.lru_cache(maxsize=4)
@@ -67,7 +66,7 @@ def _bend_columns(infos: list[dict]) -> dict:
 def _identities(descs: list[dict], env_kwargs: dict | None) -> list[dict]:
     """What makes a stored episode reusable beyond its spec: the engine it runs on (the default's
     when ``env_kwargs`` do not name one) and, for a trained model, its file's SHA-256."""
-    engine = dict((env_kwargs or {}).get("sim_config") or {}).get("engine", SimConfig().engine)
+    engine = engine_of(env_kwargs or {})
     out = []
     for d in descs:
         ident: dict[str, Any] = {"engine": engine}

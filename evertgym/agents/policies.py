@@ -247,8 +247,7 @@ def policy_cards() -> list[dict]:
     it was trained on (``engine``: its ``final_env.json``'s, else the one its ``sim_config``
     names, else the default) and whether it senses the tip (``senses_tip``: a tip force sensor,
     which an operator does not have).  Only JSON is read: no model is loaded."""
-    from evertgym.agents.train import trained_engine
-    from evertgym.env.eversion_env import OBSERVATION_KWARGS
+    from evertgym.env.eversion_env import OBSERVATION_KWARGS, engine_of
 
     index = shipped_dir() / "held_out.json"
     held_out = json.loads(index.read_text(encoding="utf-8"))["policies"] if index.is_file() else {}
@@ -261,7 +260,7 @@ def policy_cards() -> list[dict]:
             "observations": {k: v for k, v in meta.get("env_kwargs", {}).items() if k in OBSERVATION_KWARGS},
             "deterministic": bool(meta.get("deterministic", True)), "config": str(config) if config.is_file() else None,
             "held_out": held_out.get(name),
-            "engine": meta.get("engine") or trained_engine(meta.get("env_kwargs", {})),
+            "engine": meta.get("engine") or engine_of(meta.get("env_kwargs", {})),
             "senses_tip": bool(meta.get("env_kwargs", {}).get("tip_sensing", False)),
         })
     return rows

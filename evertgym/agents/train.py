@@ -57,19 +57,11 @@ import numpy as np
 
 from evertgym._extras import require
 from evertgym._validate import check_int
-from evertgym.env.eversion_env import HELD_OUT_SEED_BASE
+from evertgym.env.eversion_env import HELD_OUT_SEED_BASE, engine_of
 
 ALGOS = ("ppo", "sac")
 #: finished episodes the training bar's return and success rate average over
 ROLLING_EPISODES = 100
-
-
-def trained_engine(env_kwargs: dict) -> str:
-    """The simulator engine an env built with ``env_kwargs`` runs: the one its ``sim_config``
-    names, else this release's default (``SimConfig().engine``)."""
-    from evertgym.sim.config import SimConfig
-
-    return str(dict(env_kwargs.get("sim_config") or {}).get("engine", SimConfig().engine))
 
 
 def load_config(path: str | Path, seed: int | None = None) -> dict:
@@ -260,7 +252,7 @@ def train(config_path: str | Path, out_dir: str | Path = "runs", resume: bool | 
     # the observation options the policy was trained with travel with it and its checkpoints
     # (and whether it acts by its mean or by sampling, the config's ``deterministic``)
     meta = {"env_id": cfg["env_id"], "env_kwargs": cfg.get("env_kwargs", {}), "deterministic": cfg.get("deterministic", True),
-            "engine": trained_engine(cfg.get("env_kwargs", {}))}
+            "engine": engine_of(cfg.get("env_kwargs", {}))}
 
     class _Checkpoints(CheckpointCallback):
         """SB3's checkpoints, each with ``<stem>_env.json`` (the env it was trained on) beside it."""

@@ -38,6 +38,12 @@ VALIDATION_SEED_BASE = 2_000_000_000
 OBSERVATION_KWARGS = ("history", "tip_sensing", "scene_ahead")
 
 
+def engine_of(env_kwargs: dict) -> str:
+    """The simulator engine an env built with ``env_kwargs`` runs: the one its ``sim_config``
+    names, else this release's default (``SimConfig().engine``)."""
+    return str(dict(env_kwargs.get("sim_config") or {}).get("engine", SimConfig().engine))
+
+
 class EversionEnv(gym.Env):
     """Grow an eversion robot through a scene by scheduling its pressure.
 
