@@ -320,6 +320,10 @@ def test_eval_store_identity_names_the_engine_and_a_model_file():
     assert ident[0] == {"engine": "quasistatic"}
     assert ident[1] == {"engine": "quasistatic", "model_sha256": sha256_of(resolve_policy_path("colon_ppo_operator"))}
     assert _identities(descs, {"sim_config": {"engine": "dynamic"}})[0] == {"engine": "dynamic"}
+    from evertgym.env.eversion_env import engine_of
+    from evertgym.sim import SimConfig
+
+    assert engine_of({"sim_config": SimConfig(engine="dynamic")}) == "dynamic"  # an env takes a SimConfig too
 
 
 def _tiny_config(tmp_path: Path, n_timesteps: int = 512, name: str = "tiny_ppo") -> Path:

@@ -39,9 +39,12 @@ OBSERVATION_KWARGS = ("history", "tip_sensing", "scene_ahead")
 
 
 def engine_of(env_kwargs: dict) -> str:
-    """The simulator engine an env built with ``env_kwargs`` runs: the one its ``sim_config``
-    names, else this release's default (``SimConfig().engine``)."""
-    return str(dict(env_kwargs.get("sim_config") or {}).get("engine", SimConfig().engine))
+    """The simulator engine an env built with ``env_kwargs`` runs: the one its ``sim_config`` (a
+    :class:`SimConfig` or a dict of its fields) names, else this release's default."""
+    sim = env_kwargs.get("sim_config")
+    if isinstance(sim, SimConfig):
+        return sim.engine
+    return str(dict(sim or {}).get("engine", SimConfig().engine))
 
 
 class EversionEnv(gym.Env):

@@ -854,7 +854,6 @@ class QuasiStaticSim(GrowingTube):
         j_all = self._entry_segments(fric, a)
         in_window = j_all >= a
         mine = in_window & (sel_pos[fric["wall"]] >= 0)
-        u_in = u.copy()
         iters = 0
         for budget in (cfg.max_newton_iterations, _ESCALATION * cfg.max_newton_iterations):
             (status, it, res_m, res_f, e_s, e_w, e_wl, e_t, e_ml, acc_f, acc_m, tip, rows) = qk.solve_increment(
@@ -869,7 +868,8 @@ class QuasiStaticSim(GrowingTube):
             # the increment cannot be shortened: the same solve again, from the same start, with a larger budget
             self._stats.escalated += 1
             phi[:] = phi_ref
-            u[:] = u_in
+            if len(pieces):
+                u[:] = self._u_all[pieces]  # (committed only after the solve)
         self._stats.newton_iterations += iters
         if status == qk.INFEASIBLE_START:
             return False
