@@ -163,6 +163,9 @@ def markdown(result: dict, lines: list[str], skip_lines: list[str]) -> str:
         f"pymunk {meta['versions']['pymunk']}, commit {meta['versions']['git_commit']}. "
         "Wall times depend on the machine: compare rows of one run only.",
         "",
+        "> **Engine.** Every row below is the dynamic engine's (`SimConfig(engine=\"dynamic\")`, the default before 0.3.0): "
+        "\"default\" means its settings. Only the `vs_qs` column compares with the quasi-static engine.",
+        "",
         "## What is measured",
         "",
         "* `force_err`: largest relative error of the pymunk tensile test (`sim_tensile_test`) against the Cosserat "

@@ -394,7 +394,7 @@ def skip_costs(quick: bool = False) -> list[dict]:
     grow_s = length / 0.1 + 4.0  # full length at the largest growth speed, and a little more
     colon_s = 4.0 if quick else 10.0
     render_s = 1.0 if quick else 3.0
-    default = SimConfig()
+    default = SimConfig(engine="dynamic")  # the engine whose active set, walls and rendering these rows time
     cases = [
         ("active set", f"active_length_m = {default.active_length_m:g} (default), {length:g} m robot",
          lambda: growth_cost(default, long_scene, TubeDesign(length_m=length), 3000.0, grow_s)),
