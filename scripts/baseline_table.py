@@ -56,6 +56,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--db", default="runs/baseline_table.sqlite",
                     help="SQLite store of finished episodes (resume after a kill); default %(default)s")
     ap.add_argument("--json", action="store_true", help="print the rows as JSON")
+    ap.add_argument("--trust-model", action="store_true",
+                    help="load model files in --policies that are not shipped policies (a run's final.zip): model files are code")
     args = ap.parse_args(argv)
     envs = [e.strip() for e in args.envs.split(",") if e.strip()]
     policies = [p.strip() for p in args.policies.split(";") if p.strip()]
@@ -64,7 +66,7 @@ def main(argv: list[str] | None = None) -> int:
         for env_id in envs:
             kwargs = check_env_kwargs("--env-kwargs", args.env_kwargs, env_id)
             out[env_id] = evaluate(policies, env_id, args.episodes, env_kwargs=kwargs, workers=args.workers,
-                                   db=args.db, progress=True)
+                                   trust=args.trust_model, db=args.db, progress=True)
     except ValueError as e:
         print(f"baseline_table: error: {e}", file=sys.stderr)
         return 2

@@ -504,6 +504,29 @@ def test_baseline_table_script_prints_every_policy_on_the_same_held_out_episodes
     assert bad.returncode != 0 and "duty = 3.0 is out of range" in bad.stderr and "Traceback" not in bad.stderr
 
 
+def test_baseline_table_script_loads_a_run_model_only_when_trusted(tmp_path):
+    """A run's own model (not a shipped policy) sits in the baseline table with ``--trust-model``;
+    without it the script refuses in one line that names the flag (model files are code)."""
+    import shutil
+    import zipfile
+
+    root = Path(__file__).resolve().parents[1]
+    run = tmp_path / "run"
+    shutil.copytree(root / "agents" / "ubend_ppo_operator", run)
+    with zipfile.ZipFile(run / "final.zip", "a") as z:  # other bytes than the shipped file: not in the manifest
+        z.comment = b"a run of ours"
+    cmd = [sys.executable, str(root / "scripts" / "baseline_table.py"), "--envs", "evertgym/UBend-v0", "--episodes", "1",
+           "--db", str(tmp_path / "b.sqlite"), "--policies", f"constant:pressure_kpa=3;{run / 'final.zip'}", "--json"]
+    refused = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert refused.returncode == 2 and "--trust-model" in refused.stderr and "Traceback" not in refused.stderr
+    assert len(refused.stderr.strip().splitlines()) == 1
+    out = subprocess.run(cmd + ["--trust-model"], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    rows = json.loads(out.stdout)["evertgym/UBend-v0"]
+    assert [r["policy"] for r in rows] == ["constant:pressure_kpa=3", str(run / "final.zip")]
+    assert rows[1]["episodes"] == 1
+
+
 def test_eval_under_a_randomised_regulator_lag_draws_it_per_episode():
     """``env_kwargs`` reach every episode's env: the lag is drawn in [0.1, 0.6] s per episode,
     and the rows carry the bend columns (a held 3 kPa peaks at 3 kPa in the bend)."""
