@@ -302,6 +302,8 @@ def test_eval_with_a_store_resumes_and_keeps_engines_apart(tmp_path, monkeypatch
     monkeypatch.setattr(ev, "episode_trial", lambda spec: played.append(spec.seed) or real(spec))
     assert json.dumps(evaluate(["operator"], "evertgym/UBend-v0", 2, env_kwargs=kw, db=db)) == json.dumps(first)
     assert played == []
+    evaluate(["operator"], "evertgym/UBend-v0", 2, env_kwargs=kw, db=db, trust=True)  # (trust reaches model files only)
+    assert played == []
     evaluate(["operator"], "evertgym/UBend-v0", 3, env_kwargs=kw, db=db)
     assert played == [HELD_OUT_SEED_BASE + 2]
     played.clear()

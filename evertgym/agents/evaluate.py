@@ -113,10 +113,12 @@ def evaluate(policies: list[str | dict], env_id: str, episodes: int, env_kwargs:
                                           canonical_json(dict(env_kwargs or {})))
             check_observation_shape(policy, env, _label(desc))
     identity = _identities(descs, env_kwargs) if db is not None else [{} for _ in policies]
+    # trust reaches only a saved model's loader: a rule or a shipped policy is the same episode with or
+    # without it, and its stored episodes are found either way
     specs = [
         TrialSpec(design={}, design_name=env_id,
                   scene={"family": env_id, "params": dict(env_kwargs or {}), "seed": seed_base + i, **ident},
-                  policy={**d, **({"trust": True} if trust else {})}, seed=seed_base + i, index=i,
+                  policy={**d, **({"trust": True} if trust and d.get("name") == "agent" else {})}, seed=seed_base + i, index=i,
                   group=_label(desc))
         for desc, d, ident in zip(policies, descs, identity) for i in range(episodes)
     ]
