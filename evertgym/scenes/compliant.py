@@ -51,6 +51,7 @@ import scipy.linalg
 import scipy.sparse
 import scipy.sparse.linalg
 
+from evertgym._blas import one_blas_thread
 from evertgym.scenes.geometry import polyline_normals, simplify
 
 #: Roark's coefficient for the diameter change of a thin ring under two opposite point loads.
@@ -233,8 +234,10 @@ class WallNetwork:
 
     @cached_property
     def compliance_matrix(self) -> np.ndarray:
-        """``K^-1`` (3P x 3P)."""
-        return np.linalg.inv(self.stiffness_matrix())
+        """``K^-1`` (3P x 3P), inverted with one BLAS thread (:mod:`evertgym._blas`: the bits do not
+        depend on the cores)."""
+        with one_blas_thread():
+            return np.linalg.inv(self.stiffness_matrix())
 
     def point_stiffness(self, piece: int, direction: np.ndarray | None = None) -> float:
         """Stiffness (N/m) of ``piece`` under a force at its body position along ``direction``.

@@ -46,6 +46,7 @@ from dataclasses import dataclass
 import numpy as np
 import pymunk
 
+from evertgym._blas import one_blas_thread
 from evertgym.design import TubeDesign
 from evertgym.model.eversion import EversionThreshold, tail_weight_pressure
 from evertgym.model.params import ModelParams, load_params
@@ -280,7 +281,8 @@ class QuasiStaticSim(GrowingTube):
         self._flat = np.zeros(len(self.nodes))  # per joint: the cross-section's flattening f (band_laws.flattening)
         self._seg_r0: dict[int, float] = {}  # per full segment: its radius unflattened (m)
         self._apply_pressure(0.0)
-        self._solve()
+        with one_blas_thread():
+            self._solve()
         self._publish()
         self._show_pieces()
 
@@ -464,9 +466,11 @@ class QuasiStaticSim(GrowingTube):
         A Ctrl-C (SIGINT) whose handler runs inside a compiled solve (numba calls back into Python to
         build the exceptions it raises and catches) surfaces, when the solve returns, as a chain of
         ``SystemError`` caused by the ``KeyboardInterrupt``: it is raised here as the interrupt it is,
-        so that a resumable command stops and says how to resume."""
+        so that a resumable command stops and says how to resume.  The solves run with one BLAS
+        thread (:mod:`evertgym._blas`): the answers do not depend on the cores."""
         try:
-            self._step(n_steps)
+            with one_blas_thread():
+                self._step(n_steps)
         except SystemError as e:
             cause: BaseException | None = e
             while cause is not None and not isinstance(cause, KeyboardInterrupt):
