@@ -6,7 +6,7 @@ Layer order (docs/architecture in the README, ``shared/DESIGN.md``)::
 
 Every ``import``/``from ... import`` inside ``evertgym/`` is read with :mod:`ast`, at module
 level *and* inside functions (a function-level import is still a dependency), and
-``if TYPE_CHECKING:`` blocks too.  ``_extras``, ``_validate``, ``_version`` and ``limits`` import nothing
+``if TYPE_CHECKING:`` blocks too.  ``_blas``, ``_extras``, ``_validate``, ``_version`` and ``limits`` import nothing
 from the package and sit below every layer; ``cli_guard`` belongs to the CLI.  Experiments and agents are siblings in the design; an
 experiment plays a policy, so ``experiments`` may import ``agents``, never the reverse.  The
 package root registers the environments by entry-point string and may import only
@@ -24,6 +24,7 @@ PKG = Path(__file__).resolve().parents[1] / "evertgym"
 
 # rank of each top-level module or package of evertgym/
 LAYERS: dict[str, float] = {
+    "_blas": 0,
     "_extras": 0,
     "_validate": 0,
     "_version": 0,
