@@ -179,15 +179,42 @@ def chain_nodes(theta0: float, n0: np.ndarray, phi: np.ndarray, seg_len: np.ndar
 
 
 @nb.njit(cache=True, nogil=True)
-def wall_world(w: int, wa, wb, wpiece, pc0, u):
-    """World end points of wall segment ``w`` (static: as stored; a piece's: moved with it)."""
+def poses(pc0, u):
+    """Each wall piece's pose ``(cos, sin, x, y)`` at its displacement ``u``: the rotation and the
+    origin that move its features (computed once per configuration, not once per feature)."""
+    out = np.empty((u.shape[0], 4))
+    for p in range(u.shape[0]):
+        out[p, 0] = math.cos(u[p, 2])
+        out[p, 1] = math.sin(u[p, 2])
+        out[p, 2] = pc0[p, 0] + u[p, 0]
+        out[p, 3] = pc0[p, 1] + u[p, 1]
+    return out
+
+
+@nb.njit(cache=True, nogil=True)
+def _lazy_pose(pose, have, w, wpiece, pc0, u):
+    """Fill ``pose``'s row (:func:`poses`) of wall feature ``w``'s piece if it is not yet (``have``):
+    for tests that look at few of many pieces."""
+    p = wpiece[w]
+    if p >= 0 and not have[p]:
+        pose[p, 0] = math.cos(u[p, 2])
+        pose[p, 1] = math.sin(u[p, 2])
+        pose[p, 2] = pc0[p, 0] + u[p, 0]
+        pose[p, 3] = pc0[p, 1] + u[p, 1]
+        have[p] = True
+
+
+@nb.njit(cache=True, nogil=True)
+def wall_world(w: int, wa, wb, wpiece, pose):
+    """World end points of wall segment ``w`` (static: as stored; a piece's: moved with it, by its
+    :func:`poses` row)."""
     p = wpiece[w]
     if p < 0:
         return wa[w, 0], wa[w, 1], wb[w, 0], wb[w, 1]
-    c = math.cos(u[p, 2])
-    s = math.sin(u[p, 2])
-    ox = pc0[p, 0] + u[p, 0]
-    oy = pc0[p, 1] + u[p, 1]
+    c = pose[p, 0]
+    s = pose[p, 1]
+    ox = pose[p, 2]
+    oy = pose[p, 3]
     return (ox + c * wa[w, 0] - s * wa[w, 1], oy + s * wa[w, 0] + c * wa[w, 1],
             ox + c * wb[w, 0] - s * wb[w, 1], oy + s * wb[w, 0] + c * wb[w, 1])
 
@@ -219,10 +246,11 @@ def contacts(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0
     nodes, theta = chain_nodes(theta0, n0, phi, seg_len)
     m = phi.shape[0]
     nw = wa.shape[0]
+    pose = poses(pc0, u)
     # each feature's bounding circle (centre, radius grown by its shape's radius and the reach), once
     circ = np.empty((nw, 3))
     for w in range(nw):
-        cx, cy, dx, dy = wall_world(w, wa, wb, wpiece, pc0, u)
+        cx, cy, dx, dy = wall_world(w, wa, wb, wpiece, pose)
         circ[w, 0] = 0.5 * (cx + dx)
         circ[w, 1] = 0.5 * (cy + dy)
         circ[w, 2] = 0.5 * math.sqrt((dx - cx) ** 2 + (dy - cy) ** 2) + wrad[w] + dhat + margin
@@ -269,10 +297,10 @@ def contacts(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0
 
 
 @nb.njit(cache=True, nogil=True)
-def _pair_at(nodes, k, w, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u):
-    """Pair ``(k, w)`` now: the wall feature's end points, then :func:`_pair`'s
-    ``(s, px, py, qx, qy, dist)`` and the gap between the surfaces (m)."""
-    cx, cy, dx, dy = wall_world(w, wa, wb, wpiece, pc0, u)
+def _pair_at(nodes, k, w, seg_rad, wa, wb, wpiece, wvert, wrad, pose):
+    """Pair ``(k, w)`` now (the pieces at ``pose``, :func:`poses`): the wall feature's end points,
+    then :func:`_pair`'s ``(s, px, py, qx, qy, dist)`` and the gap between the surfaces (m)."""
+    cx, cy, dx, dy = wall_world(w, wa, wb, wpiece, pose)
     s, px, py, qx, qy, dist = _pair(nodes[k, 0], nodes[k, 1], nodes[k + 1, 0], nodes[k + 1, 1], cx, cy, dx, dy, wvert[w])
     return cx, cy, dx, dy, s, px, py, qx, qy, dist, dist - seg_rad[k] - wrad[w]
 
@@ -281,12 +309,13 @@ def _pair_at(nodes, k, w, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u):
 def pair_rows(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, cand, dhat, margin):
     """:func:`contacts` restricted to the candidate pairs ``cand`` (k, w)."""
     nodes, _ = chain_nodes(theta0, n0, phi, seg_len)
+    pose = poses(pc0, u)
     out = np.empty((cand.shape[0], 11))
     cnt = 0
     for c in range(cand.shape[0]):
         k = cand[c, 0]
         w = cand[c, 1]
-        _, _, _, _, s, px, py, qx, qy, dist, gap = _pair_at(nodes, k, w, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u)
+        _, _, _, _, s, px, py, qx, qy, dist, gap = _pair_at(nodes, k, w, seg_rad, wa, wb, wpiece, wvert, wrad, pose)
         if gap >= dhat + margin:
             continue
         out[cnt, 0] = k
@@ -314,14 +343,14 @@ def _rows_to_pairs(rows):
 
 
 @nb.njit(cache=True, nogil=True)
-def _slip(c, nodes, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_xr0, fr_xw0, wpiece, pc0, u):
+def _slip(c, nodes, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_xr0, fr_xw0, wpiece, pose):
     """Lagged friction entry ``c`` now: its segment and parameter, the robot point, the wall point and
     the tangential slip ``u_T`` (m) since the configuration before the solve."""
     k = fr_k[c]
     s = fr_s[c]
     xr = nodes[k, 0] * (1 - s) + nodes[k + 1, 0] * s
     yr = nodes[k, 1] * (1 - s) + nodes[k + 1, 1] * s
-    xw, yw = _wall_point(fr_w[c], fr_wl[c, 0], fr_wl[c, 1], wpiece, pc0, u)
+    xw, yw = _wall_point(fr_w[c], fr_wl[c, 0], fr_wl[c, 1], wpiece, pose)
     ut = ((xr - fr_xr0[c, 0]) - (xw - fr_xw0[c, 0])) * fr_t[c, 0] + ((yr - fr_xr0[c, 1]) - (yw - fr_xw0[c, 1])) * fr_t[c, 1]
     return k, s, xr, yr, xw, yw, ut
 
@@ -337,15 +366,16 @@ def energy(nodes, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_sl
     for j in range(m):
         w_, _, _ = joint_law(phi[j], k_j[j], mw_j[j], law_u, law_h, law_hi, law_slope, residual)
         e += w_
+    pose = poses(pc0, u)
     for c in range(pairs.shape[0]):
-        gap = _pair_at(nodes, pairs[c, 0], pairs[c, 1], seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u)[10]
+        gap = _pair_at(nodes, pairs[c, 0], pairs[c, 1], seg_rad, wa, wb, wpiece, wvert, wrad, pose)[10]
         if gap <= 0.0:
             return np.inf
         b, _, _ = _barrier(gap, dhat)
         e += kappa * b
     # lagged friction
     for c in range(fr_k.shape[0]):
-        ut = _slip(c, nodes, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_xr0, fr_xw0, wpiece, pc0, u)[6]
+        ut = _slip(c, nodes, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_xr0, fr_xw0, wpiece, pose)[6]
         f0, _, _ = _f0(abs(ut), eps_v)
         e += fr_mulam[c] * f0
     # compliant wall pieces
@@ -364,14 +394,15 @@ def energy(nodes, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_sl
 
 
 @nb.njit(cache=True, nogil=True)
-def _wall_point(w, lx, ly, wpiece, pc0, u):
-    """World position of a point given in wall segment ``w``'s body frame (world for static walls)."""
+def _wall_point(w, lx, ly, wpiece, pose):
+    """World position of a point given in wall segment ``w``'s body frame (world for static walls;
+    ``pose``: :func:`poses`)."""
     p = wpiece[w]
     if p < 0:
         return lx, ly
-    c = math.cos(u[p, 2])
-    s = math.sin(u[p, 2])
-    return pc0[p, 0] + u[p, 0] + c * lx - s * ly, pc0[p, 1] + u[p, 1] + s * lx + c * ly
+    c = pose[p, 0]
+    s = pose[p, 1]
+    return pose[p, 2] + c * lx - s * ly, pose[p, 3] + s * lx + c * ly
 
 
 @nb.njit(cache=True, nogil=True)
@@ -465,10 +496,11 @@ def _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0,
     ey = (nodes[m, 1] - nodes[m - 1, 1]) / seg_len[m - 1]
     tip = np.zeros(4)
     tip[3] = np.inf
+    pose = poses(pc0, u)
     for c in range(pairs.shape[0]):
         k = pairs[c, 0]
         w = pairs[c, 1]
-        cx, cy, dx, dy, s, px, py, qx, qy, dist, gap = _pair_at(nodes, k, w, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u)
+        cx, cy, dx, dy, s, px, py, qx, qy, dist, gap = _pair_at(nodes, k, w, seg_rad, wa, wb, wpiece, wvert, wrad, pose)
         if gap >= dhat or gap <= 0.0:
             continue
         _, b1, b2 = _barrier(gap, dhat)
@@ -513,7 +545,7 @@ def _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0,
                 for j in range(k + 1):
                     hjp[j, 3 * p + 2] += -fmag * (nx * (px - nodes[j, 0]) + ny * (py - nodes[j, 1]))
     for c in range(fr_k.shape[0]):
-        k, s, xr, yr, xw, yw, ut = _slip(c, nodes, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_xr0, fr_xw0, wpiece, pc0, u)
+        k, s, xr, yr, xw, yw, ut = _slip(c, nodes, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_xr0, fr_xw0, wpiece, pose)
         w = fr_w[c]
         tx = fr_t[c, 0]
         ty = fr_t[c, 1]
@@ -863,8 +895,9 @@ def _near_pairs(nodes, pairs, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, reac
     """The pairs ``(k, w)`` of ``pairs`` with a gap below ``reach`` (m) at ``nodes``, ``u``, in order."""
     keep = np.empty(pairs.shape[0], np.bool_)
     cnt = 0
+    pose = poses(pc0, u)
     for c in range(pairs.shape[0]):
-        keep[c] = _pair_at(nodes, pairs[c, 0], pairs[c, 1], seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u)[10] < reach
+        keep[c] = _pair_at(nodes, pairs[c, 0], pairs[c, 1], seg_rad, wa, wb, wpiece, wvert, wrad, pose)[10] < reach
         cnt += keep[c]
     out = np.empty((cnt, 2), np.int64)
     cnt = 0
@@ -1011,6 +1044,7 @@ def _friction_inputs(e_s, e_w, e_wl, start_nodes, s_nodes, seg_len, wpiece, pc0,
     fr_s = np.empty(nf)
     fr_xr0 = np.empty((nf, 2))
     fr_xw0 = np.empty((nf, 2))
+    pose = poses(pc0, u0)
     for i in range(nf):
         if e_s[i] < 0:
             k = m - 1
@@ -1024,7 +1058,7 @@ def _friction_inputs(e_s, e_w, e_wl, start_nodes, s_nodes, seg_len, wpiece, pc0,
         fr_s[i] = s
         fr_xr0[i, 0] = start_nodes[k, 0] * (1 - s) + start_nodes[k + 1, 0] * s
         fr_xr0[i, 1] = start_nodes[k, 1] * (1 - s) + start_nodes[k + 1, 1] * s
-        x, y = _wall_point(e_w[i], e_wl[i, 0], e_wl[i, 1], wpiece, pc0, u0)
+        x, y = _wall_point(e_w[i], e_wl[i, 0], e_wl[i, 1], wpiece, pose)
         fr_xw0[i, 0] = x
         fr_xw0[i, 1] = y
     return fr_k, fr_s, fr_xr0, fr_xw0
@@ -1164,6 +1198,8 @@ def overlaps(theta0, n0, phi, seg_len, seg_rad, feats, box_lo, box_hi, wa, wb, w
     nodes, _ = chain_nodes(theta0, n0, phi, seg_len)
     m = phi.shape[0]
     blocks = _block_boxes(nodes, seg_rad)
+    pose = np.empty((u.shape[0], 4))
+    have = np.zeros(u.shape[0], np.bool_)
     for w in feats:
         for b in range(blocks.shape[0] - 1, -1, -1):  # from the tip, where an overlap is likeliest
             if box_hi[w, 0] < blocks[b, 0] or box_lo[w, 0] > blocks[b, 1] or box_hi[w, 1] < blocks[b, 2] or box_lo[w, 1] > blocks[b, 3]:
@@ -1172,7 +1208,8 @@ def overlaps(theta0, n0, phi, seg_len, seg_rad, feats, box_lo, box_hi, wa, wb, w
                 lx, hx, ly, hy = _segment_box(nodes, k, seg_rad[k])
                 if box_hi[w, 0] < lx or box_lo[w, 0] > hx or box_hi[w, 1] < ly or box_lo[w, 1] > hy:
                     continue
-                if _pair_at(nodes, k, w, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u)[10] <= 0.0:
+                _lazy_pose(pose, have, w, wpiece, pc0, u)
+                if _pair_at(nodes, k, w, seg_rad, wa, wb, wpiece, wvert, wrad, pose)[10] <= 0.0:
                     return True
     return False
 
@@ -1204,12 +1241,15 @@ def touching(nodes, seg_rad, box_lo, box_hi, wa, wb, wpiece, wvert, wrad, pc0, u
     robot-wall pair (:func:`_pair`) with a gap below ``reach``."""
     nf = box_lo.shape[0]
     out = np.zeros(nf, np.bool_)
+    pose = np.empty((u.shape[0], 4))
+    have = np.zeros(u.shape[0], np.bool_)
     for k in range(seg_rad.shape[0]):
         lx, hx, ly, hy = _segment_box(nodes, k, seg_rad[k] + reach)
         for w in range(nf):
             if out[w] or box_hi[w, 0] < lx or box_lo[w, 0] > hx or box_hi[w, 1] < ly or box_lo[w, 1] > hy:
                 continue
-            if _pair_at(nodes, k, w, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u)[10] < reach:
+            _lazy_pose(pose, have, w, wpiece, pc0, u)
+            if _pair_at(nodes, k, w, seg_rad, wa, wb, wpiece, wvert, wrad, pose)[10] < reach:
                 out[w] = True
     return out
 
