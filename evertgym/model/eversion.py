@@ -24,7 +24,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import least_squares, minimize
 
 from evertgym.model.params import load_measurements, load_params
 
@@ -101,6 +100,8 @@ class EversionThreshold:
 
 def fit_eversion_threshold() -> dict:
     """Minimax fit (in SD units) on the Exp 4 table; returns the parameter-file section."""
+    from scipy.optimize import least_squares, minimize  # (calibration only: not loaded with an env)
+
     red, p, sd = paper_threshold_points()
 
     def resid(v):

@@ -83,18 +83,21 @@ def _uniform_cubic_table(n: int = 8000) -> tuple[float, float, np.ndarray]:
     return 0.5, grid[1] - grid[0], np.asarray(spline.c).T.copy()
 
 
-_GRID0, _GRID_H, _COEFS = _uniform_cubic_table()
-_NCELL = len(_COEFS)
+_TABLE: tuple[float, float, np.ndarray] | None = None  # built on first use (scipy.interpolate is not loaded with an env)
 
 
 def wrinkled_curvature_ratio_scalar(moment_fraction: float) -> float:
     """Fast C2 scalar version of :func:`wrinkled_curvature_ratio` for ODE right-hand sides."""
+    global _TABLE
     if moment_fraction > LAW_END_FRACTION:
         return _END_CURVATURE_RATIO + _END_SLOPE * (moment_fraction - LAW_END_FRACTION)
+    if _TABLE is None:
+        _TABLE = _uniform_cubic_table()
+    grid0, h, coefs = _TABLE
     mf = max(moment_fraction, 0.5)
-    i = min(int((mf - _GRID0) / _GRID_H), _NCELL - 1)
-    dx = mf - (_GRID0 + i * _GRID_H)
-    a, b, c, d = _COEFS[i]
+    i = min(int((mf - grid0) / h), len(coefs) - 1)
+    dx = mf - (grid0 + i * h)
+    a, b, c, d = coefs[i]
     return ((a * dx + b) * dx + c) * dx + d
 
 

@@ -16,12 +16,15 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-from PIL import Image, ImageDraw, ImageFont
 
 from evertgym.scenes.geometry import polyline_normals
 from evertgym.scenes.scene import Scene, SceneHandles
+
+if TYPE_CHECKING:  # Pillow is imported when a renderer is made, not with an env
+    from PIL import Image, ImageDraw
 
 LUMEN = (232, 240, 247)
 RIGID = (90, 90, 90)
@@ -110,6 +113,8 @@ class FrameRenderer:
         self._centre = centre
         self._moved = handles is not None and handles.network is not None
         self._background = self._draw_background(thickness)
+        from PIL import ImageFont
+
         try:
             self.font = ImageFont.load_default(size=11)
         except TypeError:  # Pillow < 10.1: a bitmap font of one size
@@ -126,6 +131,8 @@ class FrameRenderer:
 
     # ---- background ----------------------------------------------------------
     def _draw_background(self, thickness: float) -> Image.Image:
+        from PIL import Image, ImageDraw
+
         sc, k = self.scene, self.k
         img = Image.new("RGB", (self.width * k, self.height * k), BACKGROUND)
         d = ImageDraw.Draw(img)
@@ -167,6 +174,8 @@ class FrameRenderer:
         scene's pymunk handles (compliant walls drawn where they are); ``overlay``: the
         strip's text (none if None).
         """
+        from PIL import ImageDraw
+
         img = self._background.copy()
         d = ImageDraw.Draw(img)
         if self._moved and handles is not None and handles.network is not None:

@@ -8,15 +8,15 @@ red line across the lumen.  A robot is drawn as discs of its radius on its centr
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-from matplotlib.axes import Axes
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.collections import LineCollection, PatchCollection
-from matplotlib.figure import Figure
-from matplotlib.patches import Circle, Polygon
 
 from evertgym.scenes.geometry import polyline_normals
 from evertgym.scenes.scene import Scene, SceneHandles
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
 
 LUMEN_COLOUR = "#e8f0f7"
 RIGID_COLOUR = "#5a5a5a"
@@ -32,6 +32,9 @@ def _wall_band(wall: np.ndarray, outward: float, thickness: float) -> np.ndarray
 def draw_scene(ax: Axes, scene: Scene, robot_xy: np.ndarray | None = None, robot_radius: float | None = None,
                handles: SceneHandles | None = None, title: str | None = None) -> None:
     """Draw ``scene`` (SI, shown in mm) on ``ax``; compliant pieces at their current place if ``handles``."""
+    from matplotlib.collections import LineCollection, PatchCollection  # (matplotlib only when drawing)
+    from matplotlib.patches import Circle, Polygon
+
     mm = 1e3
     left, right = scene.walls
     ax.add_patch(Polygon(np.vstack([left, right[::-1]]) * mm, closed=True, facecolor=LUMEN_COLOUR, edgecolor="none"))
@@ -85,6 +88,9 @@ def draw_scene(ax: Axes, scene: Scene, robot_xy: np.ndarray | None = None, robot
 def render_rgb(scene: Scene, robot_xy: np.ndarray | None = None, robot_radius: float | None = None,
                width: int = 480, height: int = 480, handles: SceneHandles | None = None) -> np.ndarray:
     """RGB image (height, width, 3) uint8 of ``scene`` and, if given, the robot's centreline points (m)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
     dpi = 100
     fig = Figure(figsize=(width / dpi, height / dpi), dpi=dpi)
     canvas = FigureCanvasAgg(fig)
