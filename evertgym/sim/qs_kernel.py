@@ -974,7 +974,8 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
             move = max(move, math.sqrt((nodes1[j, 0] - nodes0[j, 0]) ** 2 + (nodes1[j, 1] - nodes0[j, 1]) ** 2))
         for p in range(npc):
             move = max(move, math.sqrt(step[m + 3 * p] ** 2 + step[m + 3 * p + 1] ** 2) * scale)
-        if move > max_move:
+        whole = move <= max_move  # the first trial below is then this one (its nodes: nodes1)
+        if not whole:
             scale *= max_move / move
         slope = 0.0
         for i in range(n):
@@ -982,13 +983,16 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
         alpha = scale
         accepted = False
         u_try = u.copy()
-        for _ in range(60):
+        for ls in range(60):
             trial_phi = phi + alpha * step[:m]
             for p in range(npc):
                 u_try[p, 0] = u[p, 0] + alpha * step[m + 3 * p]
                 u_try[p, 1] = u[p, 1] + alpha * step[m + 3 * p + 1]
                 u_try[p, 2] = u[p, 2] + alpha * step[m + 3 * p + 2]
-            trial_nodes, _ = chain_nodes(theta0, n0, trial_phi, seg_len)
+            if ls == 0 and whole:
+                trial_nodes = nodes1
+            else:
+                trial_nodes, _ = chain_nodes(theta0, n0, trial_phi, seg_len)
             if _moved(trial_nodes, ref_nodes, u_try, ref_u, rho) > _NEAR_MARGIN_M - _NEAR_SLACK_M:
                 near = _near_pairs(trial_nodes, pairs, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u_try, dhat + _NEAR_MARGIN_M)
                 ref_nodes = trial_nodes

@@ -238,6 +238,8 @@ class QuasiStaticSim(GrowingTube):
         self._turn: float | None = None  # sum |phi| (rad), cached until the joints change
         self._excess: float | None = None  # the excess fold angle (rad), cached with it
         self._band_turn: list[float] | None = None  # per band: the turning (rad) from the base to it, cached with it
+        # the last required pressure: (tip force N, length m, the turning it read, p_req Pa)
+        self._req_key: tuple[float, float, float, float] | None = None
         self.seg_len = np.zeros(0)  # m
         self.seg_rad = np.zeros(0)  # m
         self.length = 0.0
@@ -395,13 +397,18 @@ class QuasiStaticSim(GrowingTube):
         """Pressure (Pa) the tip needs against the wall's reaction ``tip_force`` (N): the growth law
         (:mod:`evertgym.sim.growth`) with the band-mechanism laws switched on in ``cfg``
         (:mod:`evertgym.sim.band_laws`)."""
+        key = self._req_key
+        if key is not None and key[0] == tip_force and key[1] == self.length and key[2] is self._turn:
+            return key[3]  # nothing it reads has changed since (the clock asks at every step)
         cfg = self.cfg
         p_y, area, tail = self._tip_terms()
-        req = self.growth.required_pressure(p_y, tip_force, area, self._turning(), tail, None)
+        turn = self._turning()
+        req = self.growth.required_pressure(p_y, tip_force, area, turn, tail, None)
         if cfg.fold_pinch_per_rad > 0:
             req *= math.exp(cfg.fold_pinch_per_rad * self._fold_excess())
         for r_b, t_band in self._folding_bands():
             req = max(req, band_fold_pressure(tip_force, t_band, r_b))
+        self._req_key = (tip_force, self.length, turn, req)
         return req
 
     def _tip_terms(self) -> tuple[float, float, float]:
@@ -813,9 +820,11 @@ class QuasiStaticSim(GrowingTube):
         # the wall pieces the robot is about to touch are unknowns (independent springs); the other
         # pieces' features are walls held where they are for this solve
         a_sel, b_sel = walls.a[sel], walls.b[sel]
-        wa, wb = a_sel.copy(), b_sel.copy()
+        wa, wb = a_sel, b_sel
         pieces = np.zeros(0, np.int64)
-        if np.any(wpiece_g >= 0):
+        wpiece = np.full(len(sel), -1, np.int64)
+        if self._piece_bodies and np.any(wpiece_g >= 0):
+            wa, wb = a_sel.copy(), b_sel.copy()
             blo, bhi = self._feature_boxes[0][sel], self._feature_boxes[1][sel]
             close = np.zeros(len(sel), np.bool_)
             close[qk.select_features(nodes[a:], seg_rad, blo, bhi, cfg.barrier_gap_m + _PIECE_MARGIN_M)] = True
@@ -837,10 +846,10 @@ class QuasiStaticSim(GrowingTube):
                     arr[moving, 1] = o[:, 1] + sn * loc[:, 0] + c * loc[:, 1]
             solved = unknown[wpiece_g]
             wa[solved], wb[solved] = a_sel[solved], b_sel[solved]  # in the piece's frame
-        local = np.full(len(self._piece_bodies) + 1, -1, np.int64)
-        local[pieces] = np.arange(len(pieces))
-        wpiece = np.where(wpiece_g >= 0, local[np.maximum(wpiece_g, 0)], -1)
-        wpiece[wpiece_g < 0] = -1
+            local = np.full(len(self._piece_bodies) + 1, -1, np.int64)
+            local[pieces] = np.arange(len(pieces))
+            wpiece = np.where(wpiece_g >= 0, local[np.maximum(wpiece_g, 0)], -1)
+            wpiece[wpiece_g < 0] = -1
         pc0 = self._pc0[pieces] if len(pieces) else np.zeros((0, 2))
         u = self._u_all[pieces] if len(pieces) else np.zeros((0, 3))
         if len(pieces):
@@ -905,7 +914,7 @@ class QuasiStaticSim(GrowingTube):
             self._seg_moment = np.concatenate([self._seg_moment, np.zeros(n - len(self._seg_moment))])[:n]
         self._seg_force[a:] = acc_f
         self._seg_moment[a:] = acc_m
-        self._contact_segs = {s for s in self._contact_segs if s < a} | {a + int(k) for k in rows[:, 0]}
+        self._contact_segs = {s for s in self._contact_segs if s < a} | set((rows[:, 0].astype(np.int64) + a).tolist())
         self.tip_force = max(0.0, float(tip[0]))
         self.tip_contact = np.array([tip[1], tip[2]])
         self._tip_clearance = float(tip[3])

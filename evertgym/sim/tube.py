@@ -81,9 +81,10 @@ class GrowingTube:
     def _radius_between(self, a: float, b: float) -> float:
         """Collision radius of material [a, b]: its envelope (largest radius), so no part of
         the tube can sink into a wall; a segment wholly inside a band strip gets the band's."""
-        s, r = self._radius_fine
-        m = (s >= a - 1e-12) & (s <= b + 1e-12)
-        return float(np.max(r[m])) if np.any(m) else float(np.interp(0.5 * (a + b), s, r))
+        s, r = self._radius_fine  # s increasing: the material in [a, b] is one run of it
+        i0 = int(np.searchsorted(s, a - 1e-12, side="left"))
+        i1 = int(np.searchsorted(s, b + 1e-12, side="right"))
+        return float(np.max(r[i0:i1])) if i1 > i0 else float(np.interp(0.5 * (a + b), s, r))
 
     def _near_band(self, s: float) -> bool:
         return any(lo <= s <= hi for lo, hi in self._band_zones)
