@@ -572,6 +572,7 @@ class QuasiStaticSim(GrowingTube):
         dl_max = self._increment()
         dl_min = self.cfg.growth_increment_m / 64.0
         dl = dl_max
+        cut = False
         while remaining > 1e-12:
             dl = min(dl, remaining)
             start = self._snapshot()
@@ -590,8 +591,10 @@ class QuasiStaticSim(GrowingTube):
                 self._publish()
                 continue
             self._cut_back(start, dl, p, self._required(self.tip_force) if ok else math.inf)
+            cut = True
             break
-        self._publish()
+        if cut or self.cfg.flattening > 0:  # (else the state was published as it stands: publishing is idempotent)
+            self._publish()
 
     def _cut_back(self, start: tuple, dl: float, p: float, req_end: float) -> None:
         """Find, from state ``start``, the growth in ``(0, dl)`` at which the tip's required pressure
