@@ -193,3 +193,16 @@ def test_import_evertgym_is_light():
             "assert 'evertgym/UBend-v0' in gymnasium.registry, 'envs not registered'; print(heavy)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
     assert out == "[]", f"import evertgym pulled in {out}"
+
+
+def test_an_env_step_loads_no_plotting_or_fitting_library():
+    """Making and stepping an env (no render mode) loads neither matplotlib, Pillow, scipy.optimize nor
+    scipy.interpolate: they cost an env process about 40 MB of its 200 MB (issue 25's peak RSS)."""
+    import subprocess
+    import sys
+
+    code = ("import sys, numpy as np, gymnasium as gym, evertgym; "
+            "env = gym.make('evertgym/UBend-v0'); env.reset(seed=0); env.step(np.zeros(1, np.float32)); "
+            "print(sorted(m for m in ('matplotlib', 'PIL', 'scipy.optimize', 'scipy.interpolate', 'torch') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
+    assert out == "[]", f"an env step pulled in {out}"
