@@ -9,7 +9,8 @@ included).
 
     python scripts/bench_engines.py                      # UBend-v0 and Colon-v0, 200 steps, 3 repeats
     python scripts/bench_engines.py --env evertgym/UBend-v0 --steps 100 --repeats 1 --json
-    python scripts/bench_engines.py --profile                 # where a quasi-static step's time goes
+    python scripts/bench_engines.py --profile                 # where a quasi-static step's time goes (cProfile)
+    python scripts/bench_engines.py --shares --steps 300      # the same in wall-clock time (timers around the calls)
 """
 
 from __future__ import annotations
@@ -108,6 +109,62 @@ def profile(env_id: str, steps: int, seed: int = 0) -> dict:
             "iterations_per_solve": iters / solves if solves else 0.0, "shares": {k: v / total for k, v in shares.items()}}
 
 
+def wall_shares(env_id: str, steps: int, seed: int = 0) -> dict:
+    """Wall-clock shares of ``steps`` random-action quasi-static steps of ``env_id``, from timers around
+    the compiled solve, the wall selection and overlap tests, a window's solve and the engine's step (less
+    distorted than cProfile, which charges every Python call): in this process, after a first step."""
+    import time
+
+    import gymnasium as gym
+    import numpy as np
+
+    import evertgym  # noqa: F401  (registers the envs)
+    from evertgym.sim import qs_kernel
+    from evertgym.sim.quasistatic import QuasiStaticSim
+
+    acc = dict.fromkeys(("kernel", "select", "window", "engine"), 0.0)
+    saved = []
+
+    def timed(owner, name: str, key: str) -> None:
+        inner = getattr(owner, name)
+        saved.append((owner, name, inner))
+
+        def wrapper(*a, **k):
+            t0 = time.perf_counter()
+            try:
+                return inner(*a, **k)
+            finally:
+                acc[key] += time.perf_counter() - t0
+        setattr(owner, name, wrapper)
+
+    env = gym.make(env_id, sim_config={"engine": "quasistatic"})
+    env.reset(seed=seed)
+    env.step(np.zeros(1, np.float32))
+    env.reset(seed=seed)
+    timed(qs_kernel, "solve_increment", "kernel")
+    timed(qs_kernel, "select_features", "select")
+    timed(qs_kernel, "overlaps", "select")
+    timed(QuasiStaticSim, "_solve_window", "window")
+    timed(QuasiStaticSim, "step", "engine")
+    try:
+        rng = np.random.default_rng(seed)
+        t0 = time.perf_counter()
+        for _ in range(steps):
+            _, _, term, trunc, _ = env.step(rng.uniform(-1, 1, 1).astype(np.float32))
+            if term or trunc:
+                env.reset()
+        total = time.perf_counter() - t0
+    finally:
+        for owner, name, inner in saved:
+            setattr(owner, name, inner)
+    shares = {"compiled solve (qs_kernel.solve_increment)": acc["kernel"],
+              "wall selection and overlap tests (compiled, called per solve)": acc["select"],
+              "a solve's Python set-up and commit (_solve_window)": acc["window"] - acc["kernel"] - acc["select"],
+              "the rest of the engine (clock, growth increments, events)": acc["engine"] - acc["window"],
+              "the env (projection, observation, reward, info, wrappers)": total - acc["engine"]}
+    return {"env_id": env_id, "steps": steps, "wall_s": total, "shares": {k: v / total for k, v in shares.items()}}
+
+
 def main(argv: list[str] | None = None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--env", action="append", help="env id (repeatable); default UBend-v0 and Colon-v0")
@@ -115,10 +172,21 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--json", action="store_true")
     ap.add_argument("--profile", action="store_true", help="where a quasi-static step's time goes (cProfile, in this process)")
+    ap.add_argument("--shares", action="store_true", help="where a quasi-static step's wall-clock time goes (timers, in this process)")
     args = ap.parse_args(argv)
     if not (1 <= args.steps <= 100000 and 1 <= args.repeats <= 20):
         ap.error("--steps must be in [1, 100000] and --repeats in [1, 20]")
     ids = args.env or ["evertgym/UBend-v0", "evertgym/Colon-v0"]
+    if args.shares:
+        out = {"shares": [wall_shares(env_id, args.steps) for env_id in ids]}
+        if args.json:
+            print(json.dumps(out, indent=1))
+            return out
+        for w in out["shares"]:
+            print(f"{w['env_id']}: {w['steps']} random-action steps on the quasi-static engine, {w['wall_s']:.2f} s")
+            for label, share in w["shares"].items():
+                print(f"  {100 * share:5.1f}%  {label}")
+        return out
     if args.profile:
         prof = {"profiles": [profile(env_id, args.steps) for env_id in ids]}
         if args.json:

@@ -57,7 +57,7 @@ def main() -> None:
     for knob in KNOBS:
         evaluate(["cycle"], ENV, args.episodes, env_kwargs={**KW, "sim_config": knob}, db=args.db, progress=True)
     print(f"{ENV}: {args.episodes} held-out episodes, env kwargs {KW}")
-    print(f"{'rule':44s} {'change':38s} {'given':>5s} {'moved':>5s} {'flips':>5s} {'max |dF| N':>10s} {'max |dL| mm':>11s}  flipped")
+    print(f"{'rule':44s} {'change':42s} {'given':>5s} {'moved':>5s} {'flips':>5s} {'max |dF| N':>10s} {'max |dL| mm':>11s}  flipped")
     total = flips = 0
     with ResultStore(args.db) as store:
         for base, kw_a, moved, kw_b, what in comparisons:
@@ -68,7 +68,7 @@ def main() -> None:
             d_l = max(abs(a[s]["insertion_length_mm"] - b[s]["insertion_length_mm"]) for s in same)
             total += len(a)
             flips += len(flipped)
-            print(f"{base:44s} {what:38s} {sum(r['success'] for r in a.values()):5d} {sum(r['success'] for r in b.values()):5d} "
+            print(f"{base:44s} {what:42s} {sum(r['success'] for r in a.values()):5d} {sum(r['success'] for r in b.values()):5d} "
                   f"{len(flipped):5d} {d_f:10.3g} {d_l:11.3g}  {' '.join(str(s - HELD_OUT_SEED_BASE) for s in flipped)}")
     print(f"outcomes flipped: {flips} of {total} episode pairs; seeds are printed as offsets from {HELD_OUT_SEED_BASE}")
 
