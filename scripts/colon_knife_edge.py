@@ -5,7 +5,7 @@ solver's settings changed, and where the two branches part.
 Actions are float32, so a relative change below about 6e-8 of a level does not reach the env
 (the first line printed checks it); the level perturbations here are one float32 step of the level.
 
-    python scripts/colon_knife_edge.py      # 12 + 20 + 2 episodes, about 8 min on one core
+    python scripts/colon_knife_edge.py      # 12 + 20 + 2 episodes, about 4 min on one core
 """
 import json
 
