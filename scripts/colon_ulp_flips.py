@@ -7,7 +7,8 @@ given and with one of its pressure levels moved by about 6e-8 of itself: 2 or 3 
 outcomes the level change flips, also plays them with the solver's tolerance 10 times tighter and with half
 the growth increment.  Printed per comparison: successes both ways, the episodes whose outcome differs, and
 for the episodes whose outcome is the same the largest change of the peak contact force and of the final
-insertion length.
+insertion length.  Then the shipped ``colon_ppo_operator``'s failed episodes are replayed under the same solver
+settings.
 
     python scripts/colon_ulp_flips.py --db runs/colon_rules_1thread.sqlite   # reuses the rules' stored episodes
 
@@ -17,6 +18,7 @@ Every episode is kept in ``--db`` (a killed run resumes); 1,400 new episodes tak
 from __future__ import annotations
 
 import argparse
+import json
 
 import evertgym  # noqa: F401  (registers the envs)
 from evertgym.agents.baselines import pressure_to_action
@@ -71,6 +73,17 @@ def main() -> None:
             print(f"{base:44s} {what:42s} {sum(r['success'] for r in a.values()):5d} {sum(r['success'] for r in b.values()):5d} "
                   f"{len(flipped):5d} {d_f:10.3g} {d_l:11.3g}  {' '.join(str(s - HELD_OUT_SEED_BASE) for s in flipped)}")
     print(f"outcomes flipped: {flips} of {total} episode pairs; seeds are printed as offsets from {HELD_OUT_SEED_BASE}")
+    # the shipped operator-only policy's failures, replayed under the solver settings
+    evaluate(["colon_ppo_operator"], ENV, args.episodes, env_kwargs=KW, db=args.db, progress=True)
+    with ResultStore(args.db) as store:
+        failed = sorted(s for s, r in _by_seed(store, "colon_ppo_operator", KW, args.episodes).items() if not r["success"])
+    print(f"colon_ppo_operator fails {len(failed)} of {args.episodes}; each replayed (1 = passes):")
+    for seed in failed:
+        cells = []
+        for knob in KNOBS:
+            r = evaluate(["colon_ppo_operator"], ENV, 1, env_kwargs={**KW, "sim_config": knob}, seed_base=seed, db=args.db)[0]
+            cells.append(f"{json.dumps(knob)}: {r['success_rate']:.0f}")
+        print(f"  {seed - HELD_OUT_SEED_BASE:4d}  " + "  ".join(cells))
 
 
 if __name__ == "__main__":
