@@ -1,0 +1,60 @@
+"""Paired difference of one per-episode figure between two policies on the same held-out episodes.
+
+Reads both policies' episodes from evaluation stores (``evertgym eval --db``, ``scripts/baseline_table.py
+--db``) and prints, over the episodes both have, the two means, the mean difference (second minus first)
+with its normal 95% interval, the Wilcoxon signed-rank p-value and in how many episodes the second is lower.
+
+    python scripts/paired_difference.py --env evertgym/UBend-v0 \\
+        --a runs/baseline_table.sqlite:tuned \\
+        --b runs/tries/ubend_force_heldout.sqlite:runs/tries/ubend_ppo_operator_force/final.zip
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+
+import numpy as np
+from scipy import stats
+
+from evertgym.env.eversion_env import HELD_OUT_SEED_BASE
+from evertgym.scoring.store import ResultStore
+
+KW = {"regulator_tau_s": [0.1, 0.6]}
+
+
+def _episodes(spec: str, env_id: str, key: str, episodes: int) -> dict[int, float]:
+    db, _, group = spec.partition(":")
+    if not group:
+        sys.exit(f"--a/--b = {spec!r}: expected STORE:POLICY (the policy's label in the store)")
+    seeds = list(range(HELD_OUT_SEED_BASE, HELD_OUT_SEED_BASE + episodes))
+    with ResultStore(db) as store:
+        return {r.spec.seed: float(r.result[key]) for r in store.results(group=group, seed=seeds)
+                if r.spec.scene["family"] == env_id and r.spec.scene["params"] == KW}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--env", required=True)
+    ap.add_argument("--a", required=True, help="STORE:POLICY, the first policy")
+    ap.add_argument("--b", required=True, help="STORE:POLICY, the second policy")
+    ap.add_argument("--key", default="max_contact_force_n", help="the per-episode figure (default max_contact_force_n)")
+    ap.add_argument("--episodes", type=int, default=200)
+    args = ap.parse_args()
+    a = _episodes(args.a, args.env, args.key, args.episodes)
+    b = _episodes(args.b, args.env, args.key, args.episodes)
+    seeds = sorted(set(a) & set(b))
+    if len(seeds) < 2:
+        sys.exit(f"only {len(seeds)} episodes in both stores for {args.env} with env kwargs {json.dumps(KW)}")
+    d = np.array([b[s] - a[s] for s in seeds])
+    half = 1.96 * d.std(ddof=1) / math.sqrt(len(d))
+    print(f"{args.env}, {len(seeds)} episodes in both, {args.key}: first {np.mean([a[s] for s in seeds]):.4f}, "
+          f"second {np.mean([b[s] for s in seeds]):.4f}")
+    print(f"second - first: {d.mean():+.4f}, 95% interval [{d.mean() - half:+.4f}, {d.mean() + half:+.4f}], "
+          f"Wilcoxon p = {stats.wilcoxon(d).pvalue:.2g}, second lower in {(d < 0).sum()} of {len(d)}")
+
+
+if __name__ == "__main__":
+    main()
