@@ -68,13 +68,8 @@ _GROUPS = (
 )
 
 
-def profile(env_id: str, steps: int, seed: int = 0) -> dict:
-    """cProfile of ``steps`` random-action steps of ``env_id`` on the quasi-static engine, in this
-    process (after a first step that compiles or loads the kernel): each group's share of the
-    steps' time (its functions' own time), and the solves and Newton iterations."""
-    import cProfile
-    import pstats
-
+def _warm_env(env_id: str, seed: int):
+    """A quasi-static env of ``env_id``, reset after a first step that compiles or loads the kernel."""
     import gymnasium as gym
     import numpy as np
 
@@ -84,6 +79,25 @@ def profile(env_id: str, steps: int, seed: int = 0) -> dict:
     env.reset(seed=seed)
     env.step(np.zeros(1, np.float32))
     env.reset(seed=seed)
+    return env
+
+
+def _print_shares(title: str, shares: dict[str, float]) -> None:
+    print(title)
+    for label, share in shares.items():
+        print(f"  {100 * share:5.1f}%  {label}")
+
+
+def profile(env_id: str, steps: int, seed: int = 0) -> dict:
+    """cProfile of ``steps`` random-action steps of ``env_id`` on the quasi-static engine, in this
+    process (after a first step that compiles or loads the kernel): each group's share of the
+    steps' time (its functions' own time), and the solves and Newton iterations."""
+    import cProfile
+    import pstats
+
+    import numpy as np
+
+    env = _warm_env(env_id, seed)
     rng = np.random.default_rng(seed)
     actions = [rng.uniform(-1, 1, 1).astype(np.float32) for _ in range(steps)]
     prof = cProfile.Profile()
@@ -115,10 +129,8 @@ def wall_shares(env_id: str, steps: int, seed: int = 0) -> dict:
     distorted than cProfile, which charges every Python call): in this process, after a first step."""
     import time
 
-    import gymnasium as gym
     import numpy as np
 
-    import evertgym  # noqa: F401  (registers the envs)
     from evertgym.sim import qs_kernel
     from evertgym.sim.quasistatic import QuasiStaticSim
 
@@ -137,10 +149,7 @@ def wall_shares(env_id: str, steps: int, seed: int = 0) -> dict:
                 acc[key] += time.perf_counter() - t0
         setattr(owner, name, wrapper)
 
-    env = gym.make(env_id, sim_config={"engine": "quasistatic"})
-    env.reset(seed=seed)
-    env.step(np.zeros(1, np.float32))
-    env.reset(seed=seed)
+    env = _warm_env(env_id, seed)
     timed(qs_kernel, "solve_increment", "kernel")
     timed(qs_kernel, "select_features", "select")
     timed(qs_kernel, "overlaps", "select")
@@ -183,9 +192,7 @@ def main(argv: list[str] | None = None) -> dict:
             print(json.dumps(out, indent=1))
             return out
         for w in out["shares"]:
-            print(f"{w['env_id']}: {w['steps']} random-action steps on the quasi-static engine, {w['wall_s']:.2f} s")
-            for label, share in w["shares"].items():
-                print(f"  {100 * share:5.1f}%  {label}")
+            _print_shares(f"{w['env_id']}: {w['steps']} random-action steps on the quasi-static engine, {w['wall_s']:.2f} s", w["shares"])
         return out
     if args.profile:
         prof = {"profiles": [profile(env_id, args.steps) for env_id in ids]}
@@ -193,10 +200,9 @@ def main(argv: list[str] | None = None) -> dict:
             print(json.dumps(prof, indent=1))
             return prof
         for p in prof["profiles"]:
-            print(f"{p['env_id']}: {p['steps']} random-action steps on the quasi-static engine, {p['profiled_s']:.2f} s under cProfile, "
-                  f"{p['solves_per_step']:.1f} solves per step, {p['iterations_per_solve']:.1f} Newton iterations per solve")
-            for label, share in sorted(p["shares"].items(), key=lambda kv: -kv[1]):
-                print(f"  {100 * share:5.1f}%  {label}")
+            _print_shares(f"{p['env_id']}: {p['steps']} random-action steps on the quasi-static engine, {p['profiled_s']:.2f} s under cProfile, "
+                          f"{p['solves_per_step']:.1f} solves per step, {p['iterations_per_solve']:.1f} Newton iterations per solve",
+                          dict(sorted(p["shares"].items(), key=lambda kv: -kv[1])))
         return prof
     rows = []
     for env_id in ids:

@@ -179,15 +179,21 @@ def chain_nodes(theta0: float, n0: np.ndarray, phi: np.ndarray, seg_len: np.ndar
 
 
 @nb.njit(cache=True, nogil=True)
+def _pose_row(out, p, pc0, u):
+    """Piece ``p``'s pose ``(cos, sin, x, y)`` at its displacement ``u[p]`` into ``out[p]``."""
+    out[p, 0] = math.cos(u[p, 2])
+    out[p, 1] = math.sin(u[p, 2])
+    out[p, 2] = pc0[p, 0] + u[p, 0]
+    out[p, 3] = pc0[p, 1] + u[p, 1]
+
+
+@nb.njit(cache=True, nogil=True)
 def poses(pc0, u):
     """Each wall piece's pose ``(cos, sin, x, y)`` at its displacement ``u``: the rotation and the
     origin that move its features (computed once per configuration, not once per feature)."""
     out = np.empty((u.shape[0], 4))
     for p in range(u.shape[0]):
-        out[p, 0] = math.cos(u[p, 2])
-        out[p, 1] = math.sin(u[p, 2])
-        out[p, 2] = pc0[p, 0] + u[p, 0]
-        out[p, 3] = pc0[p, 1] + u[p, 1]
+        _pose_row(out, p, pc0, u)
     return out
 
 
@@ -197,10 +203,7 @@ def _lazy_pose(pose, have, w, wpiece, pc0, u):
     for tests that look at few of many pieces."""
     p = wpiece[w]
     if p >= 0 and not have[p]:
-        pose[p, 0] = math.cos(u[p, 2])
-        pose[p, 1] = math.sin(u[p, 2])
-        pose[p, 2] = pc0[p, 0] + u[p, 0]
-        pose[p, 3] = pc0[p, 1] + u[p, 1]
+        _pose_row(pose, p, pc0, u)
         have[p] = True
 
 
