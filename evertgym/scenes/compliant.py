@@ -42,14 +42,11 @@ stiffness a single piece shows under a point load, and is what the simulation re
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
 import pymunk
-import scipy.linalg
-import scipy.sparse
-import scipy.sparse.linalg
 
 from evertgym._blas import one_blas_thread
 from evertgym.scenes.geometry import polyline_normals, simplify
@@ -170,19 +167,47 @@ class WallNetwork:
     k: np.ndarray
     direction: np.ndarray
     rest: np.ndarray
-    mass: np.ndarray = field(init=False)
-    moment: np.ndarray = field(init=False)
-    mass_scale: float = field(init=False)
-    time_constant_s: float = field(init=False)
 
-    def __post_init__(self) -> None:
-        self.mass = self.mechanics.mass_per_m * self.length
-        self.moment = self.mass * self.length**2 / 12.0
+    @cached_property
+    def physical_mass(self) -> np.ndarray:
+        """Each piece's own mass (kg): the strip's density times its volume."""
+        return self.mechanics.mass_per_m * self.length
+
+    @cached_property
+    def physical_moment(self) -> np.ndarray:
+        """Each piece's own moment of inertia (kg m^2) about its centre, as a rod."""
+        return self.physical_mass * self.length**2 / 12.0
+
+    @cached_property
+    def _dynamics(self) -> tuple[float, float]:
+        """``(mass_scale, time_constant_s)`` of the dynamic engine's wall (module docstring).
+
+        Computed on first use: the quasi-static engine never steps the wall, needs neither, and so
+        never imports the sparse eigensolver.
+        """
         lam_min, lam_max = self._extreme_eigenvalues()
-        self.mass_scale = max(1.0, lam_max * (REFERENCE_DT / MAX_OMEGA_DT) ** 2)
-        self.mass = self.mass * self.mass_scale
-        self.moment = self.moment * self.mass_scale
-        self.time_constant_s = 1.0 / math.sqrt(lam_min / self.mass_scale)
+        mass_scale = max(1.0, lam_max * (REFERENCE_DT / MAX_OMEGA_DT) ** 2)
+        return mass_scale, 1.0 / math.sqrt(lam_min / mass_scale)
+
+    @property
+    def mass_scale(self) -> float:
+        """Uniform factor on the pieces' masses and moments for the dynamic engine (>= 1)."""
+        return self._dynamics[0]
+
+    @property
+    def time_constant_s(self) -> float:
+        """``beta`` (s): the springs' damping over their stiffness, ``1 / omega_min``."""
+        return self._dynamics[1]
+
+    @property
+    def mass(self) -> np.ndarray:
+        """Each piece's mass (kg) in the dynamic engine: the physical mass times :attr:`mass_scale`."""
+        return self.physical_mass * self.mass_scale
+
+    @property
+    def moment(self) -> np.ndarray:
+        """Each piece's moment of inertia (kg m^2) in the dynamic engine, scaled like :attr:`mass`."""
+        return self.physical_moment * self.mass_scale
 
     def _extreme_eigenvalues(self) -> tuple[float, float]:
         """Smallest and largest ``omega^2`` of ``K x = omega^2 M x`` (M diagonal).
@@ -191,8 +216,11 @@ class WallNetwork:
         neighbours), so a sparse Lanczos solve (shift-invert about 0 for the smallest)
         costs milliseconds where a dense ``eigh`` of the same matrix took half a second.
         """
+        import scipy.sparse
+        import scipy.sparse.linalg
+
         k = np.asarray(self.stiffness_matrix())
-        w = 1.0 / np.sqrt(self._mass_diagonal())
+        w = 1.0 / np.sqrt(np.column_stack([self.physical_mass, self.physical_mass, self.physical_moment]).ravel())
         a = scipy.sparse.csc_matrix(k * w[:, None] * w[None, :])
         if a.shape[0] <= 32:
             lam = np.linalg.eigvalsh(a.toarray())
@@ -210,9 +238,6 @@ class WallNetwork:
     def damping(self) -> np.ndarray:
         """Damping (N s/m) of each spring: ``time_constant_s * k``."""
         return self.time_constant_s * self.k
-
-    def _mass_diagonal(self) -> np.ndarray:
-        return np.column_stack([self.mass, self.mass, self.moment]).ravel()
 
     def stiffness_matrix(self) -> np.ndarray:
         """Linear stiffness ``K`` (3P x 3P) in the DOFs ``(x, y, theta)`` of every piece."""
@@ -250,17 +275,21 @@ class WallNetwork:
         c = self.compliance_matrix[3 * piece:3 * piece + 2, 3 * piece:3 * piece + 2]
         return 1.0 / float(d @ c @ d)
 
-    def build(self, space: pymunk.Space, stiffness_factor: float = 1.0
+    def build(self, space: pymunk.Space, stiffness_factor: float = 1.0, dynamics: bool = True
               ) -> tuple[list[pymunk.Body], list[pymunk.Shape], list[pymunk.Constraint]]:
         """Add the pieces (dynamic bodies), their shapes and springs to ``space``.
 
         Spring stiffnesses are multiplied by ``stiffness_factor`` (see :meth:`Scene.build`).
+        ``dynamics=False`` is for an engine that never steps ``space`` (the quasi-static one):
+        the bodies get the physical masses and the springs no damping, so the eigenvalue
+        problem behind :attr:`mass_scale` is never solved.
         """
         bodies: list[pymunk.Body] = []
         shapes: list[pymunk.Shape] = []
         springs: list[pymunk.Constraint] = []
+        mass, moment = (self.mass, self.moment) if dynamics else (self.physical_mass, self.physical_moment)
         for i in range(self.n_pieces):
-            body = pymunk.Body(float(self.mass[i]), float(self.moment[i]))
+            body = pymunk.Body(float(mass[i]), float(moment[i]))
             body.position = tuple(self.position[i])
             pts = self.outline[i]
             segs = [style_wall_shape(pymunk.Segment(body, tuple(pts[j]), tuple(pts[j + 1]), self.shape_radius))
@@ -273,7 +302,7 @@ class WallNetwork:
             space.add(body, *segs, tether)
             bodies.append(body)
             shapes += segs
-        damping = self.damping
+        damping = self.damping if dynamics else np.zeros_like(self.k)
         for a, b, pa, pb, k, rest, c in zip(self.sa, self.sb, self.pa, self.pb, self.k, self.rest, damping):
             ba = space.static_body if a < 0 else bodies[a]
             bb = space.static_body if b < 0 else bodies[b]

@@ -19,7 +19,6 @@ from typing import Any
 
 import numpy as np
 import pymunk
-from scipy.spatial import cKDTree
 
 from evertgym.scenes.compliant import (
     WallMechanics,
@@ -29,6 +28,7 @@ from evertgym.scenes.compliant import (
 )
 from evertgym.scenes.geometry import (
     Path,
+    nearest_vertex,
     offset_walls,
     point_polyline_distance,
     polyline_normals,
@@ -157,14 +157,6 @@ class Scene:
         out = np.interp(s, self.arclength, self.lumen_width)
         return float(out) if np.ndim(out) == 0 else out
 
-    @cached_property
-    def _centre_tree(self) -> cKDTree:
-        return cKDTree(self.centreline)
-
-    @cached_property
-    def _wall_trees(self) -> list[cKDTree]:
-        return [cKDTree(w) for w in self.walls]
-
     def project(self, points: np.ndarray) -> tuple[np.ndarray | float, np.ndarray | float]:
         """Nearest centreline point of each point: ``(arclength, lateral offset)`` (m).
 
@@ -177,7 +169,7 @@ class Scene:
             return self._project_one(float(points[0]), float(points[1]))
         pts = np.atleast_2d(np.asarray(points, float))
         c, s = self.centreline, self.arclength
-        _, j = self._centre_tree.query(pts)
+        j = nearest_vertex(pts, c)
         n = len(c)
         best_d = np.full(len(pts), np.inf)
         best_s = np.zeros(len(pts))
@@ -203,7 +195,9 @@ class Scene:
         """:meth:`project` of one point, in scalars: the same operations in the same order (an env
         projects its tip once per step, where numpy's per-call cost was most of the time)."""
         c, s = self._centre_list
-        j = int(self._centre_tree.query((x, y))[1])
+        cx, cy = self._centre_xy
+        dx, dy = cx - x, cy - y
+        j = int(np.argmin(dx * dx + dy * dy))
         n = len(c)
         best_d, best_s, best_e = math.inf, 0.0, 0.0
         for off in (-1, 0):
@@ -225,13 +219,17 @@ class Scene:
         return best_s, best_e
 
     @cached_property
+    def _centre_xy(self) -> tuple[np.ndarray, np.ndarray]:
+        return np.ascontiguousarray(self.centreline[:, 0]), np.ascontiguousarray(self.centreline[:, 1])
+
+    @cached_property
     def _centre_list(self) -> tuple[list[tuple[float, float]], list[float]]:
         return [tuple(p) for p in self.centreline.tolist()], self.arclength.tolist()
 
     def wall_distance(self, points: np.ndarray) -> np.ndarray:
         """Distance (m) from each point to the nearest wall surface."""
         pts = np.atleast_2d(np.asarray(points, float))
-        return np.minimum(*(point_polyline_distance(pts, w, t) for w, t in zip(self.walls, self._wall_trees)))
+        return np.minimum(*(point_polyline_distance(pts, w) for w in self.walls))
 
     def is_inside(self, points: np.ndarray, radius: float) -> np.ndarray | bool:
         """Whether discs of ``radius`` (m) centred on ``points`` lie inside the lumen.
@@ -250,9 +248,7 @@ class Scene:
     @cached_property
     def _clearance(self) -> float:
         left, right = self.walls
-        tl, tr = self._wall_trees
-        return float(min(point_polyline_distance(left, right, tr).min(),
-                         point_polyline_distance(right, left, tl).min()))
+        return float(min(point_polyline_distance(left, right).min(), point_polyline_distance(right, left).min()))
 
     def min_clearance(self) -> float:
         """Smallest distance (m) between the left and the right wall polylines."""
@@ -296,13 +292,14 @@ class Scene:
             return None
         return design_wall_network(self.mechanics, self.arclength, self._path.normal, self.walls, self.compliant_start)
 
-    def build(self, space: pymunk.Space, dt: float | None = None) -> SceneHandles:
+    def build(self, space: pymunk.Space, dt: float | None = None, dynamics: bool = True) -> SceneHandles:
         """Add the walls to ``space``: static segments, plus the compliant wall's bodies if any.
 
         ``dt``: the step (s) the space will use.  When given, the compliant wall's spring
         stiffnesses are divided by ``space.damping ** dt``: pymunk damps the spring impulses
         of a step but neither contact impulses nor applied forces, which would otherwise make
         the wall softer by that factor at equilibrium (2.8 % at damping 1e-6, dt = 2 ms).
+        ``dynamics=False``: ``space`` is never stepped (:meth:`WallNetwork.build`).
         """
         handles = SceneHandles()
         last = min(self.compliant_start + 1, len(self.arclength))  # the static part shares its end vertex
@@ -313,7 +310,7 @@ class Scene:
         net = self.wall_network()
         if net is not None:
             factor = 1.0 if dt is None else 1.0 / space.damping**dt
-            handles.bodies, shapes, handles.springs = net.build(space, factor)
+            handles.bodies, shapes, handles.springs = net.build(space, factor, dynamics)
             handles.shapes += shapes
             handles.network = net
             # The backstop: static walls the tether travel plus a wall thickness behind the

@@ -193,7 +193,7 @@ class QuasiStaticSim(GrowingTube):
         self.params = params or load_params()
         self.space = pymunk.Space()
         self.scene = scene
-        self.scene_handles = scene.build(self.space) if scene is not None else None
+        self.scene_handles = scene.build(self.space, dynamics=False) if scene is not None else None
         self._place_base(scene, base, direction)
 
         self._init_tube(design, cfg, threshold, vertical_tail)
