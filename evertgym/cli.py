@@ -635,17 +635,23 @@ def cmd_train(args: argparse.Namespace) -> int:
 
 
 def cmd_eval(args: argparse.Namespace) -> int:
-    from evertgym.agents.evaluate import evaluate
+    from evertgym.agents.evaluate import OUTCOME_CHECKS, evaluate, outcome_check_kwargs
     from evertgym.cli_guard import check_eval_flags
     from evertgym.env.eversion_env import HELD_OUT_SEED_BASE, VALIDATION_SEED_BASE, engine_of
 
     env_kwargs = check_eval_flags(args)
     seed_base = VALIDATION_SEED_BASE if args.validation else HELD_OUT_SEED_BASE
     rows = evaluate(args.policies, args.env, args.episodes, env_kwargs=env_kwargs, workers=args.workers,
-                    trust=args.trust_model, progress=not args.json, seed_base=seed_base, db=args.db)
+                    trust=args.trust_model, progress=not args.json, seed_base=seed_base, db=args.db,
+                    check_outcomes=args.check_outcomes)
     engine = engine_of(env_kwargs or {})
     if args.json:
-        print(dumps({"rows": rows, "seed_base": seed_base, "env_id": args.env, "env_kwargs": env_kwargs or {}, "engine": engine}))
+        extra = {}
+        if args.check_outcomes:
+            extra["outcome_checks"] = [{name: kw["sim_config"][name]} for (name, _), kw
+                                       in zip(OUTCOME_CHECKS, outcome_check_kwargs(env_kwargs))]
+        print(dumps({"rows": rows, "seed_base": seed_base, "env_id": args.env, "env_kwargs": env_kwargs or {}, "engine": engine,
+                     **extra}))
         return 0
     print(f"{'validation' if args.validation else 'held-out'} episodes: episode and scene seeds {seed_base}-{seed_base + args.episodes - 1}, "
           f"{engine} engine")
@@ -660,6 +666,13 @@ def cmd_eval(args: argparse.Namespace) -> int:
         )
     print("bend_peak_kpa: peak measured pressure with the tip in the scene's bend (mean over the episodes that reached it); "
           "peak<bend: episodes whose peak came before the bend (start-up or approach)")
+    if args.check_outcomes:
+        checks = ", ".join(f"{name} / {d:g}" for name, d in OUTCOME_CHECKS)
+        print(f"outcome check: every episode replayed with {checks}; an undecided episode's outcome moves with them")
+        for r in rows:
+            seeds = " ".join(str(s - seed_base) for s in r["undecided_seeds"][:20]) + (" ..." if r["undecided_episodes"] > 20 else "")
+            print(f"  {r['policy']:{width}s} undecided {r['undecided_episodes']:>3d} of {r['episodes']}, success between "
+                  f"{r['success_low']:.3f} and {r['success_high']:.3f}" + (f" (episodes {seeds}, as offsets from {seed_base})" if seeds else ""))
     return 0
 
 
@@ -860,6 +873,9 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--force-workers", action="store_true", help="allow more --workers than CPUs")
     ev.add_argument("--trust-model", action="store_true", help="load a model file that is not a shipped policy: model files are code "
                          "(pickles) and run when loaded")
+    ev.add_argument("--check-outcomes", action="store_true",
+                    help="also replay every episode with the solver tolerance / 10 and the growth increment / 2 (quasi-static "
+                         "engine; 3x the time) and report the episodes whose outcome moves with them (undecided)")
     ev.set_defaults(func=cmd_eval)
 
     po = _sub(sub, "policies", "the shipped trained policies: env, observations, training config, held-out success")

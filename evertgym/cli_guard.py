@@ -215,6 +215,13 @@ def check_eval_flags(args: argparse.Namespace) -> dict:
         check_policy("policy", desc, args.trust_model)
     if getattr(args, "db", None) is not None:
         check_output_file("--db", args.db)
+    if getattr(args, "check_outcomes", False):
+        from evertgym.agents.evaluate import outcome_check_kwargs
+
+        try:
+            outcome_check_kwargs(env_kwargs)
+        except ValueError as e:
+            raise ValueError(f"--check-outcomes: {e}") from None
     return env_kwargs
 
 

@@ -81,9 +81,43 @@ def _label(desc: str | dict) -> str:
     return desc if isinstance(desc, str) else str(desc.get("name", desc))
 
 
+#: The quasi-static engine's settings an episode is replayed under by ``evaluate(check_outcomes=True)``, each
+#: as (SimConfig field, divisor of the env's own value): neither means anything physical, so an episode whose
+#: outcome moves with one is undecided (the colon's knife edge, docs/quasistatic.md).
+OUTCOME_CHECKS: tuple[tuple[str, float], ...] = (("solver_tolerance", 10.0), ("growth_increment_m", 2.0))
+
+
+def outcome_check_kwargs(env_kwargs: dict | None) -> list[dict]:
+    """The env kwargs of each replay of :data:`OUTCOME_CHECKS`: ``env_kwargs`` with the one setting divided.
+
+    Raises ``ValueError`` (one line) for the dynamic engine, which has no such settings, or for a
+    setting that its divisor takes out of its allowed range."""
+    import dataclasses
+
+    from evertgym.sim.config import SimConfig
+
+    kwargs = dict(env_kwargs or {})
+    engine = engine_of(kwargs)
+    if engine != "quasistatic":
+        raise ValueError(f"check_outcomes needs the quasi-static engine (it replays its solver settings); "
+                         f"the env kwargs run engine = {engine!r}")
+    sim = kwargs.get("sim_config")
+    fields = dataclasses.asdict(sim) if isinstance(sim, SimConfig) else dict(sim or {})
+    base = SimConfig(**fields)
+    out = []
+    for name, divisor in OUTCOME_CHECKS:
+        changed = {**fields, name: getattr(base, name) / divisor}
+        try:
+            SimConfig(**changed)
+        except ValueError as e:
+            raise ValueError(f"check_outcomes: {name} / {divisor:g} = {changed[name]:g} is not allowed ({e})") from None
+        out.append({**kwargs, "sim_config": changed})
+    return out
+
+
 def evaluate(policies: list[str | dict], env_id: str, episodes: int, env_kwargs: dict | None = None,
              seed_base: int = HELD_OUT_SEED_BASE, workers: int = 1, trust: bool = False,
-             progress: bool = False, db: str | Path | None = None) -> list[dict]:
+             progress: bool = False, db: str | Path | None = None, check_outcomes: bool = False) -> list[dict]:
     """One row per policy: success rate (Wilson 95%), mean time to goal, peak pressure and
     max contact force over ``episodes`` episodes whose seeds (and scene seeds) are
     ``seed_base + i``, the same for every policy.  ``tuned`` is the operator tuned on
@@ -94,9 +128,14 @@ def evaluate(policies: list[str | dict], env_id: str, episodes: int, env_kwargs:
     store (:class:`~evertgym.scoring.store.ResultStore`) that keeps every finished episode, so a
     killed evaluation resumes where it stopped; an episode's identity holds the engine it runs
     on and, for a trained model, the SHA-256 of its file, so a store is never reused for
-    another engine or a retrained model."""
-    from tqdm import tqdm
+    another engine or a retrained model.
 
+    ``check_outcomes=True`` (quasi-static engine only) also plays every episode under each setting of
+    :data:`OUTCOME_CHECKS` (tolerance / 10, growth increment / 2; three times the episodes).  An episode
+    whose success differs between the plays is undecided: the settings, not the physics, choose its
+    outcome.  Each row then adds ``undecided_episodes``, ``undecided_seeds`` and ``success_low`` /
+    ``success_high``: the success rate with every undecided episode counted a failure / a success.
+    The other columns stay those of the env's own settings."""
     if not (isinstance(episodes, int) and 1 <= episodes <= MAX_EPISODES):
         raise ValueError(f"episodes = {episodes!r} is out of range: allowed integers in [1, {MAX_EPISODES}]")
     if not (isinstance(workers, int) and workers >= 1):
@@ -112,6 +151,39 @@ def evaluate(policies: list[str | dict], env_id: str, episodes: int, env_kwargs:
             policy, env = _policy_and_env(canonical_json({**d, **({"trust": True} if trust else {})}), env_id,
                                           canonical_json(dict(env_kwargs or {})))
             check_observation_shape(policy, env, _label(desc))
+    plays = [env_kwargs] + (outcome_check_kwargs(env_kwargs) if check_outcomes else [])
+    results = [_play(policies, descs, env_id, episodes, kw, seed_base, workers, trust, progress, db) for kw in plays]
+    rows = []
+    for k, desc in enumerate(policies):
+        episode_infos = results[0][k]
+        wins = [i for i in episode_infos if i["success"]]
+        lo, hi = wilson_interval(len(wins), episodes)
+        row = {
+            "policy": _label(desc),
+            "episodes": episodes,
+            "success_rate": len(wins) / episodes,
+            "ci_low": lo,
+            "ci_high": hi,
+            "mean_time_to_goal_s": float(np.mean([i["time_s"] for i in wins])) if wins else math.nan,
+            "mean_peak_pressure_kpa": float(np.mean([i["peak_pressure_kpa"] for i in episode_infos])),
+            "mean_max_contact_force_n": float(np.mean([i["max_contact_force_n"] for i in episode_infos])),
+            **_bend_columns(episode_infos),
+        }
+        if check_outcomes:
+            success = [[r[k][i]["success"] for r in results] for i in range(episodes)]
+            undecided = [seed_base + i for i, s in enumerate(success) if len(set(s)) > 1]
+            passes = sum(1 for s in success if all(s))
+            row.update(undecided_episodes=len(undecided), undecided_seeds=undecided,
+                       success_low=passes / episodes, success_high=(passes + len(undecided)) / episodes)
+        rows.append(row)
+    return rows
+
+
+def _play(policies: list[str | dict], descs: list[dict], env_id: str, episodes: int, env_kwargs: dict | None,
+          seed_base: int, workers: int, trust: bool, progress: bool, db: str | Path | None) -> list[list[dict]]:
+    """Every policy's ``episodes`` episodes under ``env_kwargs``: per policy, the episodes' infos in seed order."""
+    from tqdm import tqdm
+
     identity = _identities(descs, env_kwargs) if db is not None else [{} for _ in policies]
     # trust reaches only a saved model's loader: a rule or a shipped policy is the same episode with or
     # without it, and its stored episodes are found either way
@@ -139,22 +211,4 @@ def evaluate(policies: list[str | dict], env_id: str, episodes: int, env_kwargs:
             if out.error is not None:
                 raise RuntimeError(f"policy {spec.group!r}, episode seed {spec.seed}: {out.error}")
             infos[spec.key] = out.result
-    rows = []
-    for k, desc in enumerate(policies):
-        episode_infos = [infos[s.key] for s in specs[k * episodes:(k + 1) * episodes]]
-        wins = [i for i in episode_infos if i["success"]]
-        lo, hi = wilson_interval(len(wins), episodes)
-        rows.append(
-            {
-                "policy": _label(desc),
-                "episodes": episodes,
-                "success_rate": len(wins) / episodes,
-                "ci_low": lo,
-                "ci_high": hi,
-                "mean_time_to_goal_s": float(np.mean([i["time_s"] for i in wins])) if wins else math.nan,
-                "mean_peak_pressure_kpa": float(np.mean([i["peak_pressure_kpa"] for i in episode_infos])),
-                "mean_max_contact_force_n": float(np.mean([i["max_contact_force_n"] for i in episode_infos])),
-                **_bend_columns(episode_infos),
-            }
-        )
-    return rows
+    return [[infos[s.key] for s in specs[k * episodes:(k + 1) * episodes]] for k in range(len(policies))]
