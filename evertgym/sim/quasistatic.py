@@ -51,6 +51,7 @@ from evertgym.design import TubeDesign
 from evertgym.model.eversion import EversionThreshold, tail_weight_pressure
 from evertgym.model.params import ModelParams, load_params
 from evertgym.model.pressure import _END_SLOPE, KINK_MOMENT_FRACTION, wrinkled_moment_fraction
+from evertgym.scenes.scene import Scene
 from evertgym.sim import qs_kernel as qk
 from evertgym.sim.band_laws import band_fold_pressure, flattening, fold_excess
 from evertgym.sim.config import SimConfig
@@ -193,7 +194,14 @@ class QuasiStaticSim(GrowingTube):
         self.params = params or load_params()
         self.space = pymunk.Space()
         self.scene = scene
-        self.scene_handles = scene.build(self.space, dynamics=False) if scene is not None else None
+        # the engine never steps the space: its compliant wall needs no scaled masses (an own scene class
+        # keeps the scenes' protocol, ``build(space, dt=None)``)
+        if scene is None:
+            self.scene_handles = None
+        elif isinstance(scene, Scene):
+            self.scene_handles = scene.build(self.space, dynamics=False)
+        else:
+            self.scene_handles = scene.build(self.space)
         self._place_base(scene, base, direction)
 
         self._init_tube(design, cfg, threshold, vertical_tail)
