@@ -131,6 +131,7 @@ def wall_shares(env_id: str, steps: int, seed: int = 0) -> dict:
 
     import numpy as np
 
+    from evertgym.env.bench import random_steps
     from evertgym.sim import qs_kernel
     from evertgym.sim.quasistatic import QuasiStaticSim
 
@@ -156,13 +157,7 @@ def wall_shares(env_id: str, steps: int, seed: int = 0) -> dict:
     timed(QuasiStaticSim, "_solve_window", "window")
     timed(QuasiStaticSim, "step", "engine")
     try:
-        rng = np.random.default_rng(seed)
-        t0 = time.perf_counter()
-        for _ in range(steps):
-            _, _, term, trunc, _ = env.step(rng.uniform(-1, 1, 1).astype(np.float32))
-            if term or trunc:
-                env.reset()
-        total = time.perf_counter() - t0
+        total = random_steps(env, steps, np.random.default_rng(seed))
     finally:
         for owner, name, inner in saved:
             setattr(owner, name, inner)

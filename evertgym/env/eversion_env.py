@@ -336,7 +336,6 @@ class EversionEnv(gym.Env):
         self._ruptured = False
         self._outcome = "running"
         self._terms = dict.fromkeys(_REWARD_TERMS, 0.0)
-        self._renderer = None
         self.episode_design = design
         return self._obs(), self._info()
 

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-#: Rows of the point-vertex distance table built at a time by :func:`nearest_vertex` (memory, not speed).
+#: Point-vertex pairs whose distances :func:`nearest_vertex` holds at a time (memory, not speed).
 _NEAREST_BLOCK = 1 << 16
 
 
