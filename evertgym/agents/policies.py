@@ -41,7 +41,10 @@ def model_meta(path: str | Path) -> dict:
     if path.parent.name == "checkpoints" and _CHECKPOINT.fullmatch(path.stem) and run_config.is_file():
         cfg = json.loads(run_config.read_text(encoding="utf-8")).get("config", {})
         if "env_id" in cfg:
-            return {"env_id": cfg["env_id"], "env_kwargs": cfg.get("env_kwargs", {}), "deterministic": cfg.get("deterministic", True)}
+            found = {"env_id": cfg["env_id"], "env_kwargs": cfg.get("env_kwargs", {}), "deterministic": cfg.get("deterministic", True)}
+            if cfg.get("residual_spec") is not None:
+                found["residual"] = cfg["residual_spec"]
+            return found
     return {}
 
 
@@ -79,7 +82,7 @@ def check_observation_shape(policy: Policy, env: Any, label: str) -> None:
     model = getattr(policy, "model", None)
     if model is None:
         return
-    want, got = tuple(model.observation_space.shape), tuple(env.observation_space.shape)
+    want, got = tuple(getattr(policy, "env_observation_shape", model.observation_space.shape)), tuple(env.observation_space.shape)
     if want == got:
         return
     env_id = env.spec.id if env.spec is not None else type(env.unwrapped).__name__
@@ -98,6 +101,10 @@ class SB3Policy(Policy):
     (PPO only) with a generator seeded by each episode's seed, so a stochastic evaluation
     is repeatable too.  ``deterministic=None`` takes the mode the model was shipped with
     (``"deterministic"`` in ``<stem>_env.json``; default True).
+
+    A residual model (its ``_env.json`` names a ``residual`` rule, :mod:`evertgym.agents.residual`)
+    is played with its rule: the rule acts, the model sees the observation with the rule's action
+    appended, and the action played is the rule's corrected by the model's.
 
     The zip and the ``.pkl`` are code (pickles): they load only if their SHA-256 is in the
     manifest of shipped policies or ``trust=True`` (:mod:`evertgym.agents.trust`).
@@ -138,6 +145,18 @@ class SB3Policy(Policy):
         self.deterministic = bool(shipped.get("deterministic", True)) if deterministic is None else bool(deterministic)
         if not self.deterministic and not isinstance(self.model, PPO):
             raise ValueError(f"policy path = {str(path)!r}: stochastic actions are supported for PPO models only")
+        from evertgym.agents.residual import check_residual, make_rule
+
+        #: the rule a residual model corrects (None for a plain model) and its spec
+        self.residual = check_residual(shipped.get("residual"))
+        self.rule: Policy | None = None
+        if self.residual is not None:
+            if self.env_id is None:
+                raise ValueError(f"policy path = {str(path)!r}: a residual model needs the env id it was trained on (its _env.json)")
+            self.rule = make_rule(self.residual, self.env_id)
+        shape = tuple(self.model.observation_space.shape or ())
+        #: the shape of the env's observation the policy takes (the model's, less the rule's action of a residual)
+        self.env_observation_shape = (shape[0] - 1,) if self.rule is not None else shape
         self.rng = np.random.default_rng(0)
         self.obs_rms = None
         if stats.exists():
@@ -152,9 +171,20 @@ class SB3Policy(Policy):
         super().reset(env)
         seed = getattr(env.unwrapped, "np_random_seed", None)
         self.rng = np.random.default_rng(None if seed is None or seed < 0 else int(seed))
+        if self.rule is not None:
+            self.rule.reset(env)
 
     def act(self, obs, info):
-        x = np.asarray(obs, dtype=np.float32)
+        if self.rule is None:
+            return self._act(np.asarray(obs, dtype=np.float32))
+        from evertgym.agents.residual import combine, with_base
+
+        assert self.residual is not None
+        base = self.rule.act(obs, info)
+        return combine(base, self._act(with_base(obs, base)), self.residual["scale"])
+
+    def _act(self, x):
+        """The model's action for observation ``x`` (normalised here)."""
         if self.obs_rms is not None:
             x = np.clip((x - self.obs_rms.mean) / np.sqrt(self.obs_rms.var + self.epsilon), -self.clip_obs, self.clip_obs)
         if self.deterministic:

@@ -11,6 +11,8 @@ A config is a TOML file in ``agents/`` in the spirit of rl-zoo3's hyperparameter
     checkpoint_freq = 10000      # env steps between checkpoints
     eval_episodes = 20           # on held-out scene seeds after training
     deterministic = true         # act by the policy's mean (false: sample it; recorded in final_env.json)
+    residual = "tuned"           # optional: learn a correction of this baseline (evertgym.agents.residual)
+    residual_scale = 0.25        # its largest correction, in action units (0.25 = 1 kPa); zoo = false
     [env_kwargs]                 # overrides of the preset
     [hyperparams]                # passed to the SB3 algorithm
     learning_rate = 3e-4
@@ -88,6 +90,20 @@ def load_config(path: str | Path, seed: int | None = None) -> dict:
         raise ValueError(f"{path}: zoo = {cfg['zoo']!r}: allowed true or false")
     if not isinstance(cfg.get("deterministic", True), bool):
         raise ValueError(f"{path}: deterministic = {cfg['deterministic']!r}: allowed true or false")
+    if "residual" in cfg or "residual_scale" in cfg:  # a learned correction of a rule (evertgym.agents.residual)
+        from evertgym.agents.residual import check_residual
+
+        if "residual" not in cfg:
+            raise ValueError(f"{path}: residual_scale = {cfg['residual_scale']!r} without residual: allowed only with "
+                             "residual = a baseline (e.g. \"tuned\")")
+        try:
+            spec = check_residual({"rule": cfg["residual"], "scale": cfg.get("residual_scale", 0.25)})
+        except ValueError as e:
+            raise ValueError(f"{path}: {e}") from None
+        if cfg.get("zoo", True):
+            raise ValueError(f"{path}: zoo = true with residual = {cfg['residual']!r}: rl-zoo3 cannot play a residual "
+                             "policy's rule; allowed zoo = false")
+        cfg["residual_spec"] = spec
     if cfg["algo"] not in ALGOS:
         raise ValueError(f"{path}: algo = {cfg['algo']!r}: allowed {ALGOS}")
     for key, lo, hi in (("n_envs", 1, 64), ("n_timesteps", 1, 10**9), ("checkpoint_freq", 1, 10**9), ("eval_episodes", 0, 10**6)):
@@ -97,14 +113,21 @@ def load_config(path: str | Path, seed: int | None = None) -> dict:
     return cfg
 
 
-def _make_env_fn(env_id: str, env_kwargs: dict):
+def _make_env_fn(env_id: str, env_kwargs: dict, residual: dict | None = None):
     """An env factory for SB3's vector envs.  It does not reset the env: the algorithm's
-    first ``VecEnv.reset()`` seeds env ``rank`` with the run's env seed ``+ rank``."""
+    first ``VecEnv.reset()`` seeds env ``rank`` with the run's env seed ``+ rank``.  With a
+    ``residual`` spec the learner acts on a correction of its rule
+    (:class:`~evertgym.agents.residual.ResidualOnRule`)."""
 
     def make():
         from stable_baselines3.common.monitor import Monitor
 
-        return Monitor(gym.make(env_id, **env_kwargs))
+        env = gym.make(env_id, **env_kwargs)
+        if residual is not None:
+            from evertgym.agents.residual import ResidualOnRule, make_rule
+
+            env = ResidualOnRule(env, make_rule(residual, env_id), residual["scale"])
+        return Monitor(env)
 
     return make
 
@@ -227,7 +250,8 @@ def train(config_path: str | Path, out_dir: str | Path = "runs", resume: bool | 
     ckpt_dir = run_dir / "checkpoints"
     ckpt_dir.mkdir(parents=True, exist_ok=True)
     n_envs, seed = cfg.get("n_envs", 1), cfg.get("seed", 0)
-    fns = [_make_env_fn(cfg["env_id"], cfg.get("env_kwargs", {})) for _ in range(n_envs)]
+    residual = cfg.get("residual_spec")
+    fns = [_make_env_fn(cfg["env_id"], cfg.get("env_kwargs", {}), residual) for _ in range(n_envs)]
     venv: VecEnv = SubprocVecEnv(fns) if n_envs > 1 else DummyVecEnv(fns)
     algos: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "sac": SAC}
     algo_cls = algos[cfg["algo"]]
@@ -253,6 +277,8 @@ def train(config_path: str | Path, out_dir: str | Path = "runs", resume: bool | 
     # (and whether it acts by its mean or by sampling, the config's ``deterministic``)
     meta = {"env_id": cfg["env_id"], "env_kwargs": cfg.get("env_kwargs", {}), "deterministic": cfg.get("deterministic", True),
             "engine": engine_of(cfg.get("env_kwargs", {}))}
+    if residual is not None:  # the rule the model corrects travels with it (SB3Policy plays both)
+        meta["residual"] = residual
 
     class _Checkpoints(CheckpointCallback):
         """SB3's checkpoints, each with ``<stem>_env.json`` (the env it was trained on) beside it."""
