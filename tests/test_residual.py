@@ -81,6 +81,7 @@ def _config(tmp_path: Path, extra: str, name: str = "res") -> Path:
     ("zoo = false\nresidual_scale = 0.5\n", "residual_scale = 0.5 without residual"),
     ('residual = "tuned"\n', "zoo = true with residual"),
     ('zoo = false\nresidual = "tuned"\nresidual_scale = 9\n', "residual_scale = 9 is out of range"),
+    ('zoo = false\nresidual = "operator:start_kpa=20"\n', "start_kpa = 20"),
 ])
 def test_training_configs_with_a_bad_residual_are_refused(tmp_path, extra, message):
     with pytest.raises(ValueError, match=message):

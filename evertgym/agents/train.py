@@ -91,13 +91,14 @@ def load_config(path: str | Path, seed: int | None = None) -> dict:
     if not isinstance(cfg.get("deterministic", True), bool):
         raise ValueError(f"{path}: deterministic = {cfg['deterministic']!r}: allowed true or false")
     if "residual" in cfg or "residual_scale" in cfg:  # a learned correction of a rule (evertgym.agents.residual)
-        from evertgym.agents.residual import check_residual
+        from evertgym.agents.residual import check_residual, make_rule
 
         if "residual" not in cfg:
             raise ValueError(f"{path}: residual_scale = {cfg['residual_scale']!r} without residual: allowed only with "
                              "residual = a baseline (e.g. \"tuned\")")
         try:
             spec = check_residual({"rule": cfg["residual"], "scale": cfg.get("residual_scale", 0.25)})
+            make_rule(spec, str(cfg.get("env_id")))  # the rule's parameters (and a tuned file for the env) exist
         except ValueError as e:
             raise ValueError(f"{path}: {e}") from None
         if cfg.get("zoo", True):
