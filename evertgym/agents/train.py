@@ -98,6 +98,7 @@ def load_config(path: str | Path, seed: int | None = None) -> dict:
                              "residual = a baseline (e.g. \"tuned\")")
         try:
             spec = check_residual({"rule": cfg["residual"], "scale": cfg.get("residual_scale", 0.25)})
+            assert spec is not None
             make_rule(spec, str(cfg.get("env_id")))  # the rule's parameters (and a tuned file for the env) exist
         except ValueError as e:
             raise ValueError(f"{path}: {e}") from None
