@@ -22,7 +22,8 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from evertgym.agents.baselines import Policy
+from evertgym.agents.baselines import BASELINES, Policy
+from evertgym.agents.describe import for_env, make_baseline, policy_desc
 from evertgym.sim.growth import MAX_PRESSURE_PA
 
 #: the largest ``residual_scale`` accepted (action units; 2 spans the whole action range)
@@ -41,9 +42,6 @@ def check_residual(spec: Any) -> dict | None:
         raise ValueError(f"residual = {spec!r} is not allowed: allowed {{'rule': a baseline, 'scale': a number in "
                          f"(0, {MAX_RESIDUAL_SCALE:g}]}}")
     rule = spec["rule"]
-    from evertgym.agents.baselines import BASELINES
-    from evertgym.agents.policies import policy_desc
-
     name = policy_desc(rule).get("name") if isinstance(rule, (str, dict)) else None
     if name not in set(BASELINES) | {"tuned"}:
         raise ValueError(f"residual = {rule!r} is out of range: allowed a baseline ({', '.join(sorted(BASELINES) + ['tuned'])}, "
@@ -58,9 +56,8 @@ def check_residual(spec: Any) -> dict | None:
 def make_rule(spec: dict, env_id: str) -> Policy:
     """The rule of a residual ``spec`` (:func:`check_residual`) as it acts on ``env_id`` (``tuned``
     takes the parameters tuned on that env)."""
-    from evertgym.agents.policies import for_env, make_policy
-
-    return make_policy(for_env(spec["rule"], env_id))
+    desc = for_env(spec["rule"], env_id)
+    return make_baseline(desc.pop("name"), **desc)
 
 
 def combine(base: np.ndarray, learned: np.ndarray, scale: float) -> np.ndarray:
