@@ -20,8 +20,8 @@ import gymnasium as gym
 
 import evertgym  # noqa: F401  (registers the envs)
 from evertgym.agents.baselines import run_episode
-from evertgym.agents.evaluate import outcome_check_kwargs
-from evertgym.agents.policies import make_policy, policy_desc
+from evertgym.agents.evaluate import OUTCOME_CHECKS, outcome_check_kwargs
+from evertgym.agents.policies import make_policy
 from evertgym.env.eversion_env import HELD_OUT_SEED_BASE
 from evertgym.limits import MAX_EPISODES
 
@@ -47,24 +47,22 @@ def main(argv: list[str] | None = None) -> int:
         if not isinstance(kwargs, dict):
             raise ValueError("not a JSON object")
         plays = [kwargs] + outcome_check_kwargs(kwargs)
-        desc = policy_desc(args.policy)
-        if args.trust_model:
-            desc["trust"] = True
-        policy = make_policy(desc)
+        policy = make_policy(args.policy, trust=args.trust_model)
     except ValueError as e:
         sys.exit(f"replay_outcomes: {e}")
-    names = ["as given", "solver_tolerance / 10", "growth_increment_m / 2"]
+    names = ["as given"] + [f"{name} / {divisor:g}" for name, divisor in OUTCOME_CHECKS]
+    envs = [gym.make(args.env, **{**kw, **getattr(policy, "observation_kwargs", {})}) for kw in plays]
     print(f"{args.policy} on {args.env}, held-out episodes {ks}: outcome per play")
     print(f"{'episode':>8}  " + "  ".join(f"{n:>22}" for n in names))
     for k in ks:
         seed = HELD_OUT_SEED_BASE + k
         row = []
-        for kw in plays:
-            env = gym.make(args.env, **{**kw, **getattr(policy, "observation_kwargs", {})})
+        for env in envs:
             info = run_episode(env, policy, seed, options={"scene_seed": seed})
             row.append(f"{info['outcome']} {info['insertion_length_mm']:.1f} mm")
-            env.close()
         print(f"{k:>8}  " + "  ".join(f"{c:>22}" for c in row), flush=True)
+    for env in envs:
+        env.close()
     return 0
 
 

@@ -12,6 +12,7 @@ import numpy as np
 from evertgym._extras import require
 from evertgym.agents.baselines import BASELINES, Policy
 from evertgym.agents.describe import for_env, make_baseline, policy_desc
+from evertgym.agents.residual import check_residual, combine, make_rule, with_base
 from evertgym.agents.tuned import shipped_dir
 
 __all__ = ["SB3Policy", "check_observation_shape", "for_env", "make_baseline", "make_policy", "model_meta", "observation_fix",
@@ -149,8 +150,6 @@ class SB3Policy(Policy):
         self.deterministic = bool(shipped.get("deterministic", True)) if deterministic is None else bool(deterministic)
         if not self.deterministic and not isinstance(self.model, PPO):
             raise ValueError(f"policy path = {str(path)!r}: stochastic actions are supported for PPO models only")
-        from evertgym.agents.residual import check_residual, make_rule
-
         #: the rule a residual model corrects (None for a plain model) and its spec
         self.residual = check_residual(shipped.get("residual"))
         self.rule: Policy | None = None
@@ -181,8 +180,6 @@ class SB3Policy(Policy):
     def act(self, obs, info):
         if self.rule is None:
             return self._act(np.asarray(obs, dtype=np.float32))
-        from evertgym.agents.residual import combine, with_base
-
         assert self.residual is not None
         base = self.rule.act(obs, info)
         return combine(base, self._act(with_base(obs, base)), self.residual["scale"])
