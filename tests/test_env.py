@@ -113,6 +113,30 @@ def test_reward_terms_respond_to_their_weights():
     assert r_hi < r_lo <= 0.0
 
 
+def test_peak_contact_reward_charges_the_episode_peak_once():
+    """``contact_reward="peak"`` charges each rise of the episode's peak tip force: the terms sum to
+    ``- contact_weight x`` the peak the evaluation reports, while the default charges every step's force
+    (more, over a wall contact of several steps). Everything else in the episode is the same."""
+    kw = dict(scene={"family": "ubend", "params": {"radius_mm": 30.0}}, contact_weight=2.0)
+    sums = {}
+    for mode in ("step", "peak"):
+        env = EversionEnv(contact_reward=mode, **kw)
+        env.reset(seed=0)
+        total, lengths = 0.0, []
+        for _ in range(60):  # 3 kPa: into the bend, where the tip meets the wall
+            _, _, term, trunc, info = env.step(np.array([-0.25], dtype=np.float32))
+            total += info["reward_contact"]
+            lengths.append(info["insertion_length_mm"])
+            assert info["reward_contact"] <= 0.0
+            if term or trunc:
+                break
+        sums[mode] = (total, info["max_contact_force_n"], lengths)
+    (step_sum, f_step, len_step), (peak_sum, f_peak, len_peak) = sums["step"], sums["peak"]
+    assert len_step == len_peak and f_step == f_peak > 0.1  # the reward does not change the physics
+    assert peak_sum == pytest.approx(-2.0 * f_peak, rel=1e-12)
+    assert step_sum < 2.0 * peak_sum  # the wall was pushed over many steps
+
+
 def test_success_terminates_with_info():
     env = gym.make("evertgym/UBend-v0", scene={"family": "ubend", "params": {"radius_mm": 40.0}})
     env.reset(seed=0)
@@ -166,6 +190,7 @@ def test_rgb_render():
         (dict(scene={"family": "ubend", "params": {"radius_mm": 10.0}}), "radius_mm = 10 is out of range"),
         (dict(design={"tube": {"diameter_mm": -40}}), "diameter_m"),
         (dict(render_mode="video"), "render_mode"),
+        (dict(contact_reward="max"), "contact_reward = 'max': allowed 'step' or 'peak'"),
     ],
 )
 def test_bad_constructor_arguments(kwargs, message):
