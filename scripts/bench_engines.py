@@ -11,6 +11,13 @@ included).
     python scripts/bench_engines.py --env evertgym/UBend-v0 --steps 100 --repeats 1 --json
     python scripts/bench_engines.py --profile                 # where a quasi-static step's time goes (cProfile)
     python scripts/bench_engines.py --shares --steps 300      # the same in wall-clock time (timers around the calls)
+    python scripts/bench_engines.py --setting '{"solver_tolerance": 0.01}' --setting '{"friction_lag_iterations": 0}'
+                                          # the quasi-static default against itself with other numerical settings
+
+With ``--setting`` (repeatable, a JSON object of ``SimConfig`` fields) the contenders are the
+quasi-static default and the default with each setting, rotated run by run; the ratio is each
+setting's steps/s over the default's.  What a setting costs in accuracy is the invariance table's
+(``scripts/invariance.py``, docs/quasistatic.md).
 """
 
 from __future__ import annotations
@@ -23,13 +30,14 @@ import sys
 
 _CHILD = r"""
 import json, os, resource, sys, time
-env_id, engine, steps, seed = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4])
+env_id, sim, steps, seed = sys.argv[1], json.loads(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4])
+engine = sim.get("engine", "quasistatic")
 if hasattr(os, "sched_setaffinity"):
     os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
 import numpy as np
 import gymnasium as gym
 import evertgym  # noqa: F401  (registers the envs)
-env = gym.make(env_id, sim_config={"engine": engine})
+env = gym.make(env_id, sim_config=sim)
 rng = np.random.default_rng(seed)
 env.reset(seed=seed)
 if engine == "quasistatic":  # compile (or load) the kernel outside the timing
@@ -48,8 +56,9 @@ print(json.dumps({"steps_per_s": steps / wall, "rss_mb": resource.getrusage(reso
 """
 
 
-def run(env_id: str, engine: str, steps: int, seed: int) -> dict:
-    out = subprocess.run([sys.executable, "-c", _CHILD, env_id, engine, str(steps), str(seed)], capture_output=True, text=True,
+def run(env_id: str, sim: dict, steps: int, seed: int) -> dict:
+    """One fresh, pinned process: ``steps`` random-action steps of ``env_id`` with ``sim_config=sim``."""
+    out = subprocess.run([sys.executable, "-c", _CHILD, env_id, json.dumps(sim), str(steps), str(seed)], capture_output=True, text=True,
                          check=True, env=dict(os.environ, PYTHONWARNINGS="ignore"))
     return json.loads(out.stdout.strip().splitlines()[-1])
 
@@ -169,6 +178,35 @@ def wall_shares(env_id: str, steps: int, seed: int = 0) -> dict:
     return {"env_id": env_id, "steps": steps, "wall_s": total, "shares": {k: v / total for k, v in shares.items()}}
 
 
+def compare_settings(ids: list[str], settings: list[dict], steps: int, repeats: int) -> list[dict]:
+    """Per env, the quasi-static default and each of ``settings``: the best of ``repeats`` runs (fresh
+    processes, the order rotated from repeat to repeat), with its steps/s over the default's."""
+    contenders = [{"engine": "quasistatic"}, *settings]
+    rows = []
+    for env_id in ids:
+        best: dict[int, dict] = {}
+        for k in range(repeats):
+            order = list(range(len(contenders)))
+            order = order[k % len(order):] + order[:k % len(order)]
+            for i in order:
+                r = run(env_id, contenders[i], steps, k)
+                if i not in best or r["steps_per_s"] > best[i]["steps_per_s"]:
+                    best[i] = r
+        for i, sim in enumerate(contenders):
+            setting = {key: v for key, v in sim.items() if key != "engine"}
+            rows.append({"env_id": env_id, "setting": setting, **best[i], "ratio": best[i]["steps_per_s"] / best[0]["steps_per_s"]})
+    return rows
+
+
+def _print_settings(out: dict) -> None:
+    print(f"quasi-static engine, best of {out['repeats']} rotated runs of {out['steps']} random-action steps, one core, a fresh process each")
+    print(f"{'env_id':20s} {'setting':44s} {'steps/s':>8s} {'ratio':>6s} {'solves/step':>11s} {'Newton it/solve':>15s}")
+    for r in out["rows"]:
+        label = json.dumps(r["setting"]) if r["setting"] else "default"
+        print(f"{r['env_id']:20s} {label:44s} {r['steps_per_s']:>8.1f} {r['ratio']:>5.2f}x {r['solves_per_step']:>11.1f} "
+              f"{r['iterations_per_solve']:>15.1f}")
+
+
 def main(argv: list[str] | None = None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--env", action="append", help="env id (repeatable); default UBend-v0 and Colon-v0")
@@ -177,10 +215,25 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--json", action="store_true")
     ap.add_argument("--profile", action="store_true", help="where a quasi-static step's time goes (cProfile, in this process)")
     ap.add_argument("--shares", action="store_true", help="where a quasi-static step's wall-clock time goes (timers, in this process)")
+    ap.add_argument("--setting", action="append", metavar="JSON",
+                    help="quasi-static SimConfig fields as JSON (repeatable): compare the default with each instead of the engines")
     args = ap.parse_args(argv)
     if not (1 <= args.steps <= 100000 and 1 <= args.repeats <= 20):
         ap.error("--steps must be in [1, 100000] and --repeats in [1, 20]")
     ids = args.env or ["evertgym/UBend-v0", "evertgym/Colon-v0"]
+    if args.setting:
+        from evertgym.cli import CLIError, _sim_overrides
+
+        try:
+            settings = [_sim_overrides(text, {"engine": "quasistatic"}) for text in args.setting]
+        except CLIError as e:
+            ap.error(str(e).replace("--sim", "--setting"))
+        out = {"steps": args.steps, "repeats": args.repeats, "rows": compare_settings(ids, settings, args.steps, args.repeats)}
+        if args.json:
+            print(json.dumps(out, indent=1))
+        else:
+            _print_settings(out)
+        return out
     if args.shares:
         out = {"shares": [wall_shares(env_id, args.steps) for env_id in ids]}
         if args.json:
@@ -204,7 +257,7 @@ def main(argv: list[str] | None = None) -> dict:
         best: dict[str, dict] = {}
         for k in range(args.repeats):
             for engine in (("dynamic", "quasistatic") if k % 2 == 0 else ("quasistatic", "dynamic")):
-                r = run(env_id, engine, args.steps, k)
+                r = run(env_id, {"engine": engine}, args.steps, k)
                 if engine not in best or r["steps_per_s"] > best[engine]["steps_per_s"]:
                     best[engine] = r
         rows.append({"env_id": env_id, **{f"{e}_{key}": v for e, r in best.items() for key, v in r.items()},

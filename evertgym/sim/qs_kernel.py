@@ -915,10 +915,10 @@ def _near_pairs(nodes, pairs, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, reac
 @nb.njit(cache=True, nogil=True)
 def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
           wa, wb, wpiece, wvert, wrad, pc0, u, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0, fr_xw0,
-          dhat, kappa, eps_v, tol_m, tol_f, max_iter, max_move, cand, rows0):
-    """Newton's method on :func:`energy` from ``(phi, u)`` (updated in place); ``cand`` the candidate
-    pairs, ``rows0`` their contact rows (:func:`pair_rows`) at the start, at least those within
-    ``dhat + 2 max_move``.
+          dhat, kappa, eps_v, tol_m, tol_f, max_iter, max_move, rows0):
+    """Newton's method on :func:`energy` from ``(phi, u)`` (updated in place); ``rows0`` the contact
+    rows (:func:`pair_rows`) at the start, at least those within ``dhat + 2 max_move``; once anything
+    has moved by ``max_move`` the rows are listed again from every wall (:func:`contacts`).
 
     Returns ``(status, iterations, residual_m, residual_f)``: the largest unbalanced joint
     moment (N m) and wall-piece force (N) at the end; ``status`` is :data:`CONVERGED` when they
@@ -1026,7 +1026,9 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
         for p in range(npc):
             drift = max(drift, math.sqrt((u[p, 0] - anchor_u[p, 0]) ** 2 + (u[p, 1] - anchor_u[p, 1]) ** 2) + 0.05 * abs(u[p, 2] - anchor_u[p, 2]))
         if drift > max_move:
-            rows = pair_rows(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, cand, dhat, 2.0 * max_move)
+            # from every wall given, not only the caller's candidates: those were listed near the
+            # start, and a body that moved this far may meet walls that were not among them
+            rows = contacts(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, dhat, 2.0 * max_move)
             pairs = _rows_to_pairs(rows)
             anchor = now
             anchor_u = u.copy()
@@ -1158,7 +1160,7 @@ def solve_increment(theta0, n0, phi, phi_ref, seg_len, seg_rad, s_nodes, k_j, mw
         fr_k, fr_s, fr_xr0, fr_xw0 = _friction_inputs(e_s, e_w, e_wl, start_nodes, s_nodes, seg_len, wpiece, pc0, u0)
         status, it, res_m, res_f = solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
                                          wa, wb, wpiece, wvert, wrad, pc0, u, kaa, fh, travel, k_travel, fr_k, fr_s, e_w, e_wl, e_t,
-                                         e_ml, fr_xr0, fr_xw0, dhat, kappa, eps_v, tol_m, tol_f, max_iter, max_move, cand, wide)
+                                         e_ml, fr_xr0, fr_xw0, dhat, kappa, eps_v, tol_m, tol_f, max_iter, max_move, wide)
         iters += it
         if status == INFEASIBLE_START:
             break

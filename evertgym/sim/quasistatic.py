@@ -69,6 +69,8 @@ _PIECE_MARGIN_M = 0.003
 _REJOIN_MEMORY = 50
 #: Chord tolerance (m) of a compliant piece's outline as a contact feature.
 _PIECE_OUTLINE_TOLERANCE_M = 1e-4
+#: Runs of one solve, each seeing the walls as far as the last one moved a node (:meth:`QuasiStaticSim._solve_window`).
+_RESELECTIONS = 4
 #: Largest node displacement (m) of one Newton step (keeps the barrier's line search local).
 _MAX_MOVE_M = 0.002
 #: A solve that did not converge in ``max_newton_iterations`` and cannot be shortened (the shortest
@@ -160,11 +162,12 @@ class SolveStats:
     rejoined: int = 0
     retried: int = 0
     escalated: int = 0
+    reselected: int = 0
 
     def to_dict(self) -> dict:
         return {"solves": self.solves, "solve_failures": self.failures, "newton_iterations": self.newton_iterations,
                 "max_residual_ratio": self.max_residual_ratio, "rejoined_joints": self.rejoined,
-                "solve_retries": self.retried, "solve_escalations": self.escalated}
+                "solve_retries": self.retried, "solve_escalations": self.escalated, "solve_reselections": self.reselected}
 
 
 class QuasiStaticSim(GrowingTube):
@@ -809,7 +812,29 @@ class QuasiStaticSim(GrowingTube):
         return int(bad[0]) if len(bad) else None
 
     def _solve_window(self, a: int, tol_m: float, tol_f: float) -> bool:
-        """Solve joints ``a..`` with the compliant wall pieces near them; commit the result."""
+        """Solve joints ``a..`` with the compliant wall pieces near them; commit the result.  False
+        (nothing committed) if the configuration overlaps a wall.
+
+        A solve sees the walls within ``_QUERY_MARGIN_M`` of the window; one that moved a node
+        farther (a snap-through) could have passed walls it did not see, so it runs again from its
+        start seeing as far as it went (``solve_reselections``).  If after :data:`_RESELECTIONS`
+        such runs it still goes farther than it sees, nothing is committed and the solve counts as
+        failed (a ``solve_failed`` event): a committed state never overlaps a wall."""
+        margin = _QUERY_MARGIN_M
+        for _ in range(_RESELECTIONS):
+            out = self._solve_window_at(a, tol_m, tol_f, margin)
+            if isinstance(out, bool):
+                return out
+            self._stats.reselected += 1
+            margin = out + _QUERY_MARGIN_M
+        self._stats.solves += 1
+        self._stats.failures += 1
+        self._event("solve_failed", status=int(qk.LINE_SEARCH_FAILED), residual=math.inf, reach_mm=round(1e3 * out, 3))
+        return False
+
+    def _solve_window_at(self, a: int, tol_m: float, tol_f: float, margin: float) -> bool | float:
+        """:meth:`_solve_window` seeing the walls within ``margin`` (m) of the window: its result, or
+        (nothing committed) the largest distance (m) a node moved if that is more than ``margin``."""
         cfg = self.cfg
         nodes, theta = self._all_nodes()
         theta0 = self.base_angle if a == 0 else float(theta[a - 1])
@@ -820,7 +845,7 @@ class QuasiStaticSim(GrowingTube):
         m = len(phi)
         phi_ref = phi.copy()
         walls = self._walls
-        sel = qk.select_features(nodes[a:], seg_rad, *self._feature_boxes, cfg.barrier_gap_m + _QUERY_MARGIN_M)
+        sel = qk.select_features(nodes[a:], seg_rad, *self._feature_boxes, cfg.barrier_gap_m + margin)
         if qk.overlaps(theta0, n0, phi, seg_len, seg_rad, sel, *self._feature_boxes, walls.a, walls.b, walls.piece, walls.vertex,
                        walls.radius, self._pc0, self._u_all):  # the features an overlap can involve are all in sel
             return False
@@ -897,6 +922,9 @@ class QuasiStaticSim(GrowingTube):
         self._stats.newton_iterations += iters
         if status == qk.INFEASIBLE_START:
             return False
+        reach = float(np.max(np.hypot(*(qk.chain_nodes(theta0, n0, phi, seg_len)[0] - nodes[a:]).T)))
+        if reach > margin:  # it went past the walls it saw: again, seeing farther (_solve_window)
+            return reach
         self._stats.solves += 1
         ratio = max(res_m / tol_m, res_f / tol_f) * cfg.solver_tolerance  # largest residual over p pi r^2 (r^3)
         if status != qk.CONVERGED and self._retry_ok:  # the caller retries the increment at half its length
