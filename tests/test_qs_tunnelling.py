@@ -81,8 +81,7 @@ def test_a_solve_that_goes_beyond_the_walls_it_sees_runs_again_seeing_farther(mo
     of those runs again seeing as far as it went, and the answer is the default's."""
     from test_sim import grow_into_inclined_wall
 
-    from evertgym.sim import SimConfig
-    from evertgym.sim import quasistatic
+    from evertgym.sim import SimConfig, quasistatic
 
     qs = SimConfig(engine="quasistatic")
     ref, ref_heading = grow_into_inclined_wall(45.0, qs)
