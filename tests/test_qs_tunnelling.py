@@ -91,3 +91,20 @@ def test_a_solve_that_goes_beyond_the_walls_it_sees_runs_again_seeing_farther(mo
     assert sim.solve_stats["solve_reselections"] > 0 and sim.solve_stats["solve_failures"] == 0
     assert heading == pytest.approx(ref_heading, abs=1e-6)
     assert np.max(np.abs(sim.centreline() - ref.centreline())) < 1e-6
+
+
+def test_a_state_that_overlaps_a_wall_is_counted_as_failed_not_silently_frozen():
+    """Should a committed state ever overlap a wall, every pressure re-solve from it is refused;
+    each one is counted (``solve_failures``) and recorded as a ``solve_failed`` event."""
+    from test_sim import grow_into_inclined_wall
+
+    from evertgym.sim import SimConfig
+
+    sim, _ = grow_into_inclined_wall(80.0, SimConfig(engine="quasistatic"))  # stalled head-on against the wall
+    assert sim.solve_stats["solve_failures"] == 0
+    sim.seg_rad[-2] += 0.02  # the segment behind the tip now reaches 9 mm into the wall
+    sim.set_pressure_command(6000.0)
+    sim.run(0.5)
+    failed = [e for e in sim.events if e.kind == "solve_failed"]
+    assert sim.solve_stats["solve_failures"] > 0 and len(failed) == sim.solve_stats["solve_failures"]
+    assert failed[0].detail["status"] == qk.INFEASIBLE_START

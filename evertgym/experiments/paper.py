@@ -130,15 +130,17 @@ def solve_totals(records) -> dict:
     """Sums of the quasi-static engine's solve counts over trial records: ``solves``,
     ``solve_failures`` (ended above the tolerance), ``failure_share``, the largest final
     residual ratio, ``solve_retries`` (growth increments retried at half their length after a
-    solve that did not converge) and ``solve_escalations`` (solves that could not be shortened,
-    run again with a larger Newton budget); empty counts for the dynamic engine."""
+    solve that did not converge), ``solve_escalations`` (solves that could not be shortened,
+    run again with a larger Newton budget) and ``solve_reselections`` (solves run again seeing the
+    walls farther out, having moved past those they saw); empty counts for the dynamic engine."""
     solves = sum(int(r.result.get("solves", 0)) for r in records)
     failures = sum(int(r.result.get("solve_failures", 0)) for r in records)
     worst = max((float(r.result.get("max_residual_ratio", 0.0)) for r in records), default=0.0)
     return {"solves": solves, "solve_failures": failures, "failure_share": failures / solves if solves else 0.0,
             "max_residual_ratio": worst, "trials_with_failures": sum(int(r.result.get("solve_failures", 0)) > 0 for r in records),
             "solve_retries": sum(int(r.result.get("solve_retries", 0)) for r in records),
-            "solve_escalations": sum(int(r.result.get("solve_escalations", 0)) for r in records)}
+            "solve_escalations": sum(int(r.result.get("solve_escalations", 0)) for r in records),
+            "solve_reselections": sum(int(r.result.get("solve_reselections", 0)) for r in records)}
 
 
 UBEND_JAM_LEAD = (("design", "design"), ("radius mm", "radius_mm"), ("passed", "passed"))

@@ -576,7 +576,7 @@ class QuasiStaticSim(GrowingTube):
         remaining = self._pending
         self._pending = 0.0
         if remaining <= 0:
-            self._solve()
+            self._solve_in_place()
             self._publish()
             return
         f_step = _FORCE_STEP_FRACTION * self._scales()[0]
@@ -645,10 +645,19 @@ class QuasiStaticSim(GrowingTube):
                 break
         if best is None:
             self._restore(start)
-            self._solve()
+            self._solve_in_place()
         else:
             self._restore(best)
         self._req_ahead = req_hi
+
+    def _solve_in_place(self) -> None:
+        """Solve the body where it stands (a pressure change, a cut-back to an increment's start).
+        A state that overlaps a wall cannot be solved: each such solve is counted as failed and
+        recorded as a ``solve_failed`` event (status ``INFEASIBLE_START``), never skipped silently."""
+        if not self._solve():
+            self._stats.solves += 1
+            self._stats.failures += 1
+            self._event("solve_failed", status=int(qk.INFEASIBLE_START), residual=math.inf)
 
     def _grow(self, dl: float) -> bool:
         """Lengthen the tip segment by ``dl`` (m), splitting it past two segments; the tip's radius
