@@ -173,8 +173,10 @@ def test_deflate_defaults_and_bad_parameters():
 
 
 def test_deflate_on_stall_deflates_in_a_colon_episode():
-    """A held-out Colon-v0 episode: the rule deflates at least once, only to 0 kPa, and
-    never commands more than 3 kPa."""
+    """A held-out Colon-v0 episode (the third) in which the robot stalls: the rule deflates at
+    least once, only to 0 kPa, and never commands more than 3 kPa.  (The first held-out episode
+    served until the engine's wall fix of 2026-12-04: its robot had passed through a wall and
+    stood still, and the rule deflated 17 times; it now passes without a stall.)"""
     import gymnasium as gym
 
     from evertgym.agents.evaluate import run_episode
@@ -189,7 +191,8 @@ def test_deflate_on_stall_deflates_in_a_colon_episode():
         seen.append(round(env.unwrapped.command_pa / 1e3, 6))
         return False
 
-    info = run_episode(env, policy, HELD_OUT_SEED_BASE, options={"scene_seed": HELD_OUT_SEED_BASE}, stop=record)
+    seed = HELD_OUT_SEED_BASE + 2
+    info = run_episode(env, policy, seed, options={"scene_seed": seed}, stop=record)
     assert set(seen) == {0.0, 3.0} and policy.deflations >= 1
     assert info["peak_pressure_kpa"] <= 3.0 + 0.05
     assert info["outcome"] in ("success", "time out")
