@@ -178,20 +178,26 @@ def wall_shares(env_id: str, steps: int, seed: int = 0) -> dict:
     return {"env_id": env_id, "steps": steps, "wall_s": total, "shares": {k: v / total for k, v in shares.items()}}
 
 
+def best_runs(env_id: str, contenders: list[dict], steps: int, repeats: int) -> list[dict]:
+    """Each contender's (``sim_config``) fastest of ``repeats`` runs; the order rotates from repeat to
+    repeat (two contenders alternate, AB BA ...), so a load spike hits them alike."""
+    n = len(contenders)
+    best: dict[int, dict] = {}
+    for k in range(repeats):
+        for i in ((j + k) % n for j in range(n)):
+            r = run(env_id, contenders[i], steps, k)
+            if i not in best or r["steps_per_s"] > best[i]["steps_per_s"]:
+                best[i] = r
+    return [best[i] for i in range(n)]
+
+
 def compare_settings(ids: list[str], settings: list[dict], steps: int, repeats: int) -> list[dict]:
     """Per env, the quasi-static default and each of ``settings``: the best of ``repeats`` runs (fresh
     processes, the order rotated from repeat to repeat), with its steps/s over the default's."""
     contenders = [{"engine": "quasistatic"}, *settings]
     rows = []
     for env_id in ids:
-        best: dict[int, dict] = {}
-        for k in range(repeats):
-            order = list(range(len(contenders)))
-            order = order[k % len(order):] + order[:k % len(order)]
-            for i in order:
-                r = run(env_id, contenders[i], steps, k)
-                if i not in best or r["steps_per_s"] > best[i]["steps_per_s"]:
-                    best[i] = r
+        best = best_runs(env_id, contenders, steps, repeats)
         for i, sim in enumerate(contenders):
             setting = {key: v for key, v in sim.items() if key != "engine"}
             rows.append({"env_id": env_id, "setting": setting, **best[i], "ratio": best[i]["steps_per_s"] / best[0]["steps_per_s"]})
@@ -254,12 +260,8 @@ def main(argv: list[str] | None = None) -> dict:
         return prof
     rows = []
     for env_id in ids:
-        best: dict[str, dict] = {}
-        for k in range(args.repeats):
-            for engine in (("dynamic", "quasistatic") if k % 2 == 0 else ("quasistatic", "dynamic")):
-                r = run(env_id, {"engine": engine}, args.steps, k)
-                if engine not in best or r["steps_per_s"] > best[engine]["steps_per_s"]:
-                    best[engine] = r
+        best = dict(zip(("dynamic", "quasistatic"), best_runs(env_id, [{"engine": "dynamic"}, {"engine": "quasistatic"}],
+                                                               args.steps, args.repeats)))
         rows.append({"env_id": env_id, **{f"{e}_{key}": v for e, r in best.items() for key, v in r.items()},
                      "ratio": best["quasistatic"]["steps_per_s"] / best["dynamic"]["steps_per_s"]})
     result = {"steps": args.steps, "repeats": args.repeats, "rows": rows}

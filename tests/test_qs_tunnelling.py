@@ -17,6 +17,8 @@ SEG_M = 0.0075
 RAD_M = 0.005
 WALL_Y_M = 0.003  # a wall line above the straight chain's axis, closer than its radius
 WALL_X0_M = 0.050
+WALL_A = np.array([[WALL_X0_M, WALL_Y_M]])
+WALL_B = np.array([[0.080, WALL_Y_M]])
 
 
 def _swing_back(start_rad: float) -> tuple[np.ndarray, np.ndarray, tuple]:
@@ -28,14 +30,13 @@ def _swing_back(start_rad: float) -> tuple[np.ndarray, np.ndarray, tuple]:
     phi[0] = start_rad
     seg_len = np.full(m, SEG_M)
     seg_rad = np.full(m, RAD_M)
-    wa, wb = np.array([[WALL_X0_M, WALL_Y_M]]), np.array([[0.080, WALL_Y_M]])
     z2, z0 = np.zeros((0, 2)), np.zeros(0)
     n0 = np.zeros(2)
     before, _ = qk.chain_nodes(0.0, n0, phi, seg_len)
     out = qk.solve_increment(
         0.0, n0, phi, phi.copy(), seg_len, seg_rad, np.arange(m + 1) * SEG_M, np.full(m, 0.05), np.full(m, 10.0),
         *_LAW[:3], _LAW[3], RESIDUAL_STIFFNESS_FRACTION,
-        wa, wb, np.full(1, -1, np.int64), np.zeros(1, np.bool_), np.zeros(1), np.zeros(1), np.zeros(m), z2, np.zeros((0, 3)),
+        WALL_A, WALL_B, np.full(1, -1, np.int64), np.zeros(1, np.bool_), np.zeros(1), np.zeros(1), np.zeros(m), z2, np.zeros((0, 3)),
         np.zeros((0, 3, 3)), z0, z0, z0, z0, np.zeros(0, np.int64), z2, z2, z0,
         1e-3, 0.1 * 8000.0 * math.pi * 0.02**2 / 1e-3, 1e-5, 1e-7, 1e-7, 200, 0.002, 1)
     after, _ = qk.chain_nodes(0.0, n0, phi, seg_len)
@@ -47,7 +48,7 @@ def _gaps(nodes: np.ndarray) -> np.ndarray:
     out = []
     for k in range(len(nodes) - 1):
         gap = qk._pair_at(nodes, k, 0, np.full(len(nodes) - 1, RAD_M),
-                                                            np.array([[WALL_X0_M, WALL_Y_M]]), np.array([[0.080, WALL_Y_M]]),
+                                                            WALL_A, WALL_B,
                                                             np.full(1, -1, np.int64), np.zeros(1, np.bool_), np.zeros(1),
                                                             np.zeros((0, 4)))[10]
         out.append(gap)

@@ -655,9 +655,13 @@ class QuasiStaticSim(GrowingTube):
         A state that overlaps a wall cannot be solved: each such solve is counted as failed and
         recorded as a ``solve_failed`` event (status ``INFEASIBLE_START``), never skipped silently."""
         if not self._solve():
-            self._stats.solves += 1
-            self._stats.failures += 1
-            self._event("solve_failed", status=int(qk.INFEASIBLE_START), residual=math.inf)
+            self._count_failed(qk.INFEASIBLE_START)
+
+    def _count_failed(self, status: int, **detail) -> None:
+        """A solve that could not be made (nothing committed): counted as failed, a ``solve_failed`` event."""
+        self._stats.solves += 1
+        self._stats.failures += 1
+        self._event("solve_failed", status=int(status), residual=math.inf, **detail)
 
     def _grow(self, dl: float) -> bool:
         """Lengthen the tip segment by ``dl`` (m), splitting it past two segments; the tip's radius
@@ -836,9 +840,7 @@ class QuasiStaticSim(GrowingTube):
                 return out
             self._stats.reselected += 1
             margin = out + _QUERY_MARGIN_M
-        self._stats.solves += 1
-        self._stats.failures += 1
-        self._event("solve_failed", status=int(qk.LINE_SEARCH_FAILED), residual=math.inf, reach_mm=round(1e3 * out, 3))
+        self._count_failed(qk.LINE_SEARCH_FAILED, reach_mm=round(1e3 * out, 3))
         return False
 
     def _solve_window_at(self, a: int, tol_m: float, tol_f: float, margin: float) -> bool | float:
