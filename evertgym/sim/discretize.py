@@ -81,32 +81,57 @@ def joint_moment(angle: np.ndarray, stiffness: np.ndarray, wrinkling_moment: np.
 
 def hat_compliance(section: TubeSection, nodes: np.ndarray, s_end: float, shear: bool = False) -> np.ndarray:
     """``c_j = int h_j / EI ds`` for each node (``int h_j / GA ds`` with ``shear``);
-    the last node's hat is cut at ``s_end``."""
+    the last node's hat is cut at ``s_end``.
+
+    Each half of a hat is integrated by the trapezoidal rule on :data:`_QUAD_PER_SEGMENT` intervals;
+    every half is one row of a single array (one stiffness evaluation for all), the left half added
+    before the right, which gives the same bits as integrating them one at a time."""
     stiffness = section.shear_stiffness if shear else section.bending_stiffness
     n = len(nodes)
+    if n == 0:
+        return np.zeros(0)
+    nodes = np.asarray(nodes, dtype=float)
+    lo = np.empty(n)
+    lo[0] = nodes[0]
+    lo[1:] = nodes[:-1]
+    hi = np.empty(n)
+    hi[:-1] = nodes[1:]
+    hi[-1] = min(s_end, nodes[-1] + (nodes[-1] - nodes[-2] if n > 1 else 0.0))
+    a = np.concatenate([lo, nodes])  # rows 0..n-1: the left halves; n..2n-1: the right halves
+    b = np.concatenate([nodes, hi])
+    centre = np.concatenate([nodes, nodes])
+    rows = b - a > 0
+    a, b, centre = a[rows], b[rows], centre[rows]
+    s = np.ascontiguousarray(np.linspace(a, b, _QUAD_PER_SEGMENT + 1, axis=-1))  # each row summed as a 1-D array is
+    h = 1.0 - np.abs(s - centre[:, None]) / (b - a)[:, None]
+    half = np.zeros(2 * n)
+    half[rows] = np.trapezoid(h / stiffness(s), s, axis=-1)
     comp = np.zeros(n)
-    for j in range(n):
-        lo = nodes[j - 1] if j > 0 else nodes[0]
-        hi = nodes[j + 1] if j + 1 < n else min(s_end, nodes[j] + (nodes[j] - nodes[j - 1] if j > 0 else 0.0))
-        for a, b in ((lo, nodes[j]), (nodes[j], hi)):
-            if b - a <= 0:
-                continue
-            s = np.linspace(a, b, _QUAD_PER_SEGMENT + 1)
-            h = 1.0 - np.abs(s - nodes[j]) / (b - a)
-            comp[j] += np.trapezoid(h / stiffness(s), s)
+    comp += half[:n]
+    comp += half[n:]
     return comp
+
+
+def min_radius(section: TubeSection, lo: np.ndarray, hi: np.ndarray, samples: int) -> np.ndarray:
+    """The narrowest radius (m) of each stretch ``[lo_i, hi_i]`` (m), sampled at ``samples``
+    evenly spaced points (both ends included); one radius evaluation for all the stretches."""
+    if len(lo) == 0:
+        return np.zeros(0)
+    s = np.linspace(np.asarray(lo, dtype=float), np.asarray(hi, dtype=float), samples, axis=-1)
+    return np.min(section.radius(s), axis=-1)
 
 
 def joint_law(section: TubeSection, nodes: np.ndarray, s_end: float) -> JointLaw:
     """Stiffness and wrinkling data of the joints at ``nodes`` (body coordinates, m)."""
     comp = hat_compliance(section, nodes, s_end)
     n = len(nodes)
-    r_min = np.empty(n)
-    for j in range(n):
-        half_lo = (nodes[j] - nodes[j - 1]) / 2 if j > 0 else 0.0
-        half_hi = (nodes[j + 1] - nodes[j]) / 2 if j + 1 < n else max(0.0, min(s_end - nodes[j], half_lo))
-        s = np.linspace(nodes[j] - half_lo, nodes[j] + half_hi, 33)
-        r_min[j] = float(np.min(section.radius(s)))
+    half_lo = np.zeros(n)
+    half_hi = np.zeros(n)
+    if n:
+        half_lo[1:] = (nodes[1:] - nodes[:-1]) / 2
+        half_hi[:-1] = half_lo[1:]
+        half_hi[-1] = max(0.0, min(s_end - nodes[-1], half_lo[-1]))
+    r_min = min_radius(section, nodes - half_lo, nodes + half_hi, 33)
     mw = 0.5 * section.pressure_pa * math.pi * r_min**3
     return JointLaw(1.0 / comp, 1.0 / hat_compliance(section, nodes, s_end, shear=True), mw, r_min)
 

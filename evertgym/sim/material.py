@@ -17,7 +17,7 @@ import numpy as np
 from evertgym.design import TubeDesign
 from evertgym.model.params import ModelParams
 from evertgym.model.section import TubeSection
-from evertgym.sim.discretize import hat_compliance
+from evertgym.sim.discretize import hat_compliance, min_radius
 
 #: Reference pressure at which the joint compliances are tabulated (Pa).
 P_REF = 6900.0
@@ -58,7 +58,7 @@ def material_tables(design: TubeDesign, ds: float, params: ModelParams) -> Mater
     section = TubeSection(design, P_REF, params)
     c_ref = hat_compliance(section, nodes, design.length_m)
     cs_ref = hat_compliance(section, nodes, design.length_m, shear=True)
-    r_cell = np.array([float(np.min(section.radius(np.linspace(max(s - ds / 2, 0), s + ds / 2, 17)))) for s in nodes])
+    r_cell = min_radius(section, np.maximum(nodes - ds / 2, 0.0), nodes + ds / 2, 17)
     seg_s = np.linspace(0, design.length_m, int(design.length_m / (ds / 8)) + 2)
     seg_r = section.radius(seg_s)
     for a in (nodes, c_ref, cs_ref, r_cell, seg_s, seg_r):
