@@ -84,8 +84,8 @@ def hat_compliance(section: TubeSection, nodes: np.ndarray, s_end: float, shear:
     the last node's hat is cut at ``s_end``.
 
     Each half of a hat is integrated by the trapezoidal rule on :data:`_QUAD_PER_SEGMENT` intervals;
-    every half is one row of a single array (one stiffness evaluation for all), the left half added
-    before the right, which gives the same bits as integrating them one at a time."""
+    every half is one row of a single array (one stiffness evaluation for all), and a node's two halves
+    are added left to right, which gives the same bits as integrating them one at a time."""
     stiffness = section.shear_stiffness if shear else section.bending_stiffness
     n = len(nodes)
     if n == 0:
@@ -106,10 +106,7 @@ def hat_compliance(section: TubeSection, nodes: np.ndarray, s_end: float, shear:
     h = 1.0 - np.abs(s - centre[:, None]) / (b - a)[:, None]
     half = np.zeros(2 * n)
     half[rows] = np.trapezoid(h / stiffness(s), s, axis=-1)
-    comp = np.zeros(n)
-    comp += half[:n]
-    comp += half[n:]
-    return comp
+    return half[:n] + half[n:]
 
 
 def min_radius(section: TubeSection, lo: np.ndarray, hi: np.ndarray, samples: int) -> np.ndarray:
