@@ -702,7 +702,10 @@ def cmd_policies(args: argparse.Namespace) -> int:
         else:
             lag = f", {json.dumps(h['env_kwargs'])}" if h["env_kwargs"] else ""
             held = f"{h['successes']}/{h['episodes']} [{h['ci_low']:.2f}, {h['ci_high']:.2f}] on {h['engine']}{lag}"
-        table.append((r["name"], r["env_id"] or "-", obs, "mean" if r["deterministic"] else "sampled", r["engine"], shown(r["config"]), held))
+        acts = "mean" if r["deterministic"] else "sampled"
+        if r["residual"] is not None:
+            acts += f", corrects {r['residual']['rule']} by <= {r['residual']['scale']:g}"
+        table.append((r["name"], r["env_id"] or "-", obs, acts, r["engine"], shown(r["config"]), held))
     head = ("policy", "env", "observations", "actions", "trained on", "training config",
             "held-out success (Wilson 95%, engine, eval env kwargs)")
     widths = [max(len(row[i]) for row in [head, *table]) for i in range(len(head) - 1)]

@@ -201,6 +201,11 @@ def test_policies_lists_every_shipped_policy_with_env_observations_config_and_he
     # every listed number says the engine it was measured on; a policy that senses the tip says so
     assert all(r["engine"] in ("dynamic", "quasistatic") and r["held_out"]["engine"] in ("dynamic", "quasistatic") for r in rows)
     assert {r["name"] for r in rows if r["senses_tip"]} == {r["name"] for r in rows if r["observations"].get("tip_sensing")}
+    # a residual policy names the rule it corrects; a plain one has none
+    residual = {r["name"]: r["residual"] for r in rows}
+    assert residual["colon_residual_operator"] == {"rule": "cycle:low_kpa=0,high_kpa=3,period_s=1", "scale": 0.25}
+    assert residual["colon_ppo_operator"] is None
+    assert "corrects cycle:low_kpa=0,high_kpa=3,period_s=1 by <= 0.25" in out
 
 
 def test_the_held_out_index_agrees_with_the_evaluations_in_docs():

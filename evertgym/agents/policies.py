@@ -231,6 +231,7 @@ def policy_cards() -> list[dict]:
             "held_out": held_out.get(name),
             "engine": meta.get("engine") or engine_of(meta.get("env_kwargs", {})),
             "senses_tip": bool(meta.get("env_kwargs", {}).get("tip_sensing", False)),
+            "residual": meta.get("residual"),
         })
     return rows
 
