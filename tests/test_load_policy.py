@@ -101,8 +101,8 @@ def test_compare_runs_tells_identical_policies_from_different_ones(capsys, tmp_p
 
 
 def test_the_shipped_residual_policy_plays_the_square_wave_within_its_scale():
-    """colon_residual_operator acts clip(wave + 0.25 x correction): every command it plays lies within 0.25
-    of the action units (1 kPa) of the 0 <-> 3 kPa wave's, and it corrects the wave somewhere."""
+    """colon_residual_operator acts clip(wave + 0.25 x correction): every command it plays lies within 0.25 action
+    units (1 kPa) of the 0 <-> 3 kPa wave's, and it corrects the wave somewhere."""
     from evertgym.agents.policies import make_baseline
 
     policy, env_id, env_kwargs = load_policy("colon_residual_operator")
