@@ -33,12 +33,12 @@ def test_a_path_a_run_folder_and_a_name_resolve_alike():
     zip_path = shipped_dir() / "ubend_ppo" / "final.zip"
     assert resolve_policy_path("ubend_ppo") == resolve_policy_path(zip_path.parent) == zip_path == resolve_policy_path(zip_path)
     assert shipped_policies() == ["colon_ppo", "colon_ppo_operator", "colon_residual_operator", "tortuous_ppo_operator",
-                                  "ubend_ppo", "ubend_ppo_operator"]
+                                  "tortuous_residual_operator", "ubend_ppo", "ubend_ppo_operator"]
 
 
 def test_unknown_policy_names_the_shipped_ones():
-    shipped = (r"\['colon_ppo', 'colon_ppo_operator', 'colon_residual_operator', 'tortuous_ppo_operator', 'ubend_ppo', "
-               r"'ubend_ppo_operator'\]")
+    shipped = (r"\['colon_ppo', 'colon_ppo_operator', 'colon_residual_operator', 'tortuous_ppo_operator', "
+               r"'tortuous_residual_operator', 'ubend_ppo', 'ubend_ppo_operator'\]")
     with pytest.raises(ValueError, match=rf"shipped: {shipped}"):
         load_policy("no_such_policy")
 
@@ -55,8 +55,8 @@ def test_loaded_policy_acts_like_the_cli_path():
     assert np.array_equal(a.act(obs, info), b.act(obs, info))
 
 
-@pytest.mark.parametrize("name", ["colon_ppo", "colon_ppo_operator", "colon_residual_operator", "tortuous_ppo_operator", "ubend_ppo",
-                                  "ubend_ppo_operator"])
+@pytest.mark.parametrize("name", ["colon_ppo", "colon_ppo_operator", "colon_residual_operator", "tortuous_ppo_operator",
+                                  "tortuous_residual_operator", "ubend_ppo", "ubend_ppo_operator"])
 def test_a_shipped_policy_was_trained_with_its_config_and_the_operator_ones_never_see_the_tip(name):
     """agents/<name>/final_env.json (written by the training) matches agents/<name>.toml, so
     `evertgym train agents/<name>.toml` reruns what is shipped; the *_operator policies
@@ -100,20 +100,26 @@ def test_compare_runs_tells_identical_policies_from_different_ones(capsys, tmp_p
     assert mod.main(str(ubend), str(tmp_path / "model_80000_steps.zip")) == 1
 
 
-def test_the_shipped_residual_policy_plays_the_square_wave_within_its_scale():
-    """colon_residual_operator acts clip(wave + 0.25 x correction): every command it plays lies within 0.25 action
-    units (1 kPa) of the 0 <-> 3 kPa wave's, and it corrects the wave somewhere."""
+@pytest.mark.parametrize(("name", "env_id", "rule", "wave"), [
+    ("colon_residual_operator", "evertgym/Colon-v0", "cycle:low_kpa=0,high_kpa=3,period_s=1",
+     {"low_kpa": 0, "high_kpa": 3, "period_s": 1}),
+    ("tortuous_residual_operator", "evertgym/Tortuous-v0", "cycle", {}),
+])
+def test_a_shipped_residual_policy_plays_its_square_wave_within_its_scale(name, env_id, rule, wave):
+    """A residual policy acts clip(wave + 0.25 x correction): every command it plays lies within 0.25 action units
+    (1 kPa) of its wave's (Colon-v0: 0 <-> 3 kPa, 1 s; Tortuous-v0: `cycle`'s 1 <-> 8 kPa, 2 s), and it corrects the
+    wave somewhere."""
     from evertgym.agents.policies import make_baseline
 
-    policy, env_id, env_kwargs = load_policy("colon_residual_operator")
-    assert (env_id, policy.residual) == ("evertgym/Colon-v0", {"rule": "cycle:low_kpa=0,high_kpa=3,period_s=1", "scale": 0.25})
-    env, wave = gym.make(env_id, **env_kwargs), make_baseline("cycle", low_kpa=0, high_kpa=3, period_s=1)
+    policy, got_env_id, env_kwargs = load_policy(name)
+    assert (got_env_id, policy.residual) == (env_id, {"rule": rule, "scale": 0.25})
+    env, rule_policy = gym.make(env_id, **env_kwargs), make_baseline("cycle", **wave)
     obs, info = env.reset(seed=1_000_000_000)
     policy.reset(env)
-    wave.reset(env)
+    rule_policy.reset(env)
     gaps = []
     for _ in range(20):
-        a, b = policy.act(obs, info), wave.act(obs, info)
+        a, b = policy.act(obs, info), rule_policy.act(obs, info)
         gaps.append(float(a[0] - b[0]))
         obs, _, term, trunc, info = env.step(a)
         if term or trunc:
