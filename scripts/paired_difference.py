@@ -3,6 +3,9 @@
 Reads both policies' episodes from evaluation stores (``evertgym eval --db``, ``scripts/baseline_table.py
 --db``) and prints, over the episodes both have, the two means, the mean difference (second minus first)
 with its normal 95% interval, the Wilcoxon signed-rank p-value and in how many episodes the second is lower.
+``--env-kwargs`` picks the episodes played with those env kwargs (default the randomised regulator lag), e.g. an
+outcome check's replays (``evertgym eval --check-outcomes`` stores them with the changed setting in ``sim_config``),
+so a difference can be shown to survive the solver's numerical settings.
 
     python scripts/paired_difference.py --env evertgym/UBend-v0 \\
         --a runs/baseline_table.sqlite:tuned \\
@@ -25,14 +28,14 @@ from evertgym.scoring.store import ResultStore
 KW = {"regulator_tau_s": [0.1, 0.6]}
 
 
-def _episodes(spec: str, env_id: str, key: str, episodes: int) -> dict[int, float]:
+def _episodes(spec: str, env_id: str, key: str, episodes: int, env_kwargs: dict) -> dict[int, float]:
     db, _, group = spec.partition(":")
     if not group:
         sys.exit(f"--a/--b = {spec!r}: expected STORE:POLICY (the policy's label in the store)")
     seeds = list(range(HELD_OUT_SEED_BASE, HELD_OUT_SEED_BASE + episodes))
     with ResultStore(db) as store:
         return {r.spec.seed: float(r.result[key]) for r in store.results(group=group, seed=seeds)
-                if r.spec.scene["family"] == env_id and r.spec.scene["params"] == KW}
+                if r.spec.scene["family"] == env_id and r.spec.scene["params"] == env_kwargs}
 
 
 def main() -> None:
@@ -42,12 +45,21 @@ def main() -> None:
     ap.add_argument("--b", required=True, help="STORE:POLICY, the second policy")
     ap.add_argument("--key", default="max_contact_force_n", help="the per-episode figure (default max_contact_force_n)")
     ap.add_argument("--episodes", type=int, default=200)
+    ap.add_argument("--env-kwargs", default=json.dumps(KW),
+                    help="the env kwargs the episodes were played with, as JSON (default %(default)s); an outcome "
+                         'check\'s replay adds e.g. "sim_config": {"solver_tolerance": 0.0001}')
     args = ap.parse_args()
-    a = _episodes(args.a, args.env, args.key, args.episodes)
-    b = _episodes(args.b, args.env, args.key, args.episodes)
+    try:
+        env_kwargs = json.loads(args.env_kwargs)
+    except json.JSONDecodeError as e:
+        sys.exit(f"--env-kwargs = {args.env_kwargs!r} is not JSON ({e.msg}): allowed a JSON object of env kwargs")
+    if not isinstance(env_kwargs, dict):
+        sys.exit(f"--env-kwargs = {args.env_kwargs!r} is not allowed: a JSON object of env kwargs")
+    a = _episodes(args.a, args.env, args.key, args.episodes, env_kwargs)
+    b = _episodes(args.b, args.env, args.key, args.episodes, env_kwargs)
     seeds = sorted(set(a) & set(b))
     if len(seeds) < 2:
-        sys.exit(f"only {len(seeds)} episodes in both stores for {args.env} with env kwargs {json.dumps(KW)}")
+        sys.exit(f"only {len(seeds)} episodes in both stores for {args.env} with env kwargs {json.dumps(env_kwargs)}")
     d = np.array([b[s] - a[s] for s in seeds])
     half = 1.96 * d.std(ddof=1) / math.sqrt(len(d))
     print(f"{args.env}, {len(seeds)} episodes in both, {args.key}: first {np.mean([a[s] for s in seeds]):.4f}, "
