@@ -33,12 +33,12 @@ def test_a_path_a_run_folder_and_a_name_resolve_alike():
     zip_path = shipped_dir() / "ubend_ppo" / "final.zip"
     assert resolve_policy_path("ubend_ppo") == resolve_policy_path(zip_path.parent) == zip_path == resolve_policy_path(zip_path)
     assert shipped_policies() == ["colon_ppo", "colon_ppo_operator", "colon_residual_operator", "tortuous_ppo_operator",
-                                  "tortuous_residual_operator", "ubend_ppo", "ubend_ppo_operator"]
+                                  "tortuous_residual_operator", "ubend_ppo", "ubend_ppo_operator", "ubend_residual_operator"]
 
 
 def test_unknown_policy_names_the_shipped_ones():
     shipped = (r"\['colon_ppo', 'colon_ppo_operator', 'colon_residual_operator', 'tortuous_ppo_operator', "
-               r"'tortuous_residual_operator', 'ubend_ppo', 'ubend_ppo_operator'\]")
+               r"'tortuous_residual_operator', 'ubend_ppo', 'ubend_ppo_operator', 'ubend_residual_operator'\]")
     with pytest.raises(ValueError, match=rf"shipped: {shipped}"):
         load_policy("no_such_policy")
 
@@ -56,7 +56,7 @@ def test_loaded_policy_acts_like_the_cli_path():
 
 
 @pytest.mark.parametrize("name", ["colon_ppo", "colon_ppo_operator", "colon_residual_operator", "tortuous_ppo_operator",
-                                  "tortuous_residual_operator", "ubend_ppo", "ubend_ppo_operator"])
+                                  "tortuous_residual_operator", "ubend_ppo", "ubend_ppo_operator", "ubend_residual_operator"])
 def test_a_shipped_policy_was_trained_with_its_config_and_the_operator_ones_never_see_the_tip(name):
     """agents/<name>/final_env.json (written by the training) matches agents/<name>.toml, so
     `evertgym train agents/<name>.toml` reruns what is shipped; the *_operator policies
@@ -100,20 +100,21 @@ def test_compare_runs_tells_identical_policies_from_different_ones(capsys, tmp_p
     assert mod.main(str(ubend), str(tmp_path / "model_80000_steps.zip")) == 1
 
 
-@pytest.mark.parametrize(("name", "env_id", "rule", "wave"), [
-    ("colon_residual_operator", "evertgym/Colon-v0", "cycle:low_kpa=0,high_kpa=3,period_s=1",
-     {"low_kpa": 0, "high_kpa": 3, "period_s": 1}),
-    ("tortuous_residual_operator", "evertgym/Tortuous-v0", "cycle", {}),
+@pytest.mark.parametrize(("name", "env_id", "rule", "scale"), [
+    ("colon_residual_operator", "evertgym/Colon-v0", "cycle:low_kpa=0,high_kpa=3,period_s=1", 0.25),
+    ("tortuous_residual_operator", "evertgym/Tortuous-v0", "cycle", 0.25),
+    ("ubend_residual_operator", "evertgym/UBend-v0", "operator:start_kpa=0.8,step_kpa=0.1,stall_s=0.5,relax_kpa_per_s=0.25",
+     0.05),
 ])
-def test_a_shipped_residual_policy_plays_its_square_wave_within_its_scale(name, env_id, rule, wave):
-    """A residual policy acts clip(wave + 0.25 x correction): every command it plays lies within 0.25 action units
-    (1 kPa) of its wave's (Colon-v0: 0 <-> 3 kPa, 1 s; Tortuous-v0: `cycle`'s 1 <-> 8 kPa, 2 s), and it corrects the
-    wave somewhere."""
-    from evertgym.agents.policies import make_baseline
+def test_a_shipped_residual_policy_plays_its_rule_within_its_scale(name, env_id, rule, scale):
+    """A residual policy acts clip(rule + scale x correction): every command it plays lies within its scale of the
+    rule's own command in the same state (Colon-v0: the 0 <-> 3 kPa wave, 1 kPa; Tortuous-v0: `cycle`'s 1 <-> 8 kPa
+    wave, 1 kPa; UBend-v0: the tuned 0.1 kPa-step operator, 0.2 kPa), and it corrects the rule somewhere."""
+    from evertgym.agents.policies import make_policy
 
     policy, got_env_id, env_kwargs = load_policy(name)
-    assert (got_env_id, policy.residual) == (env_id, {"rule": rule, "scale": 0.25})
-    env, rule_policy = gym.make(env_id, **env_kwargs), make_baseline("cycle", **wave)
+    assert (got_env_id, policy.residual) == (env_id, {"rule": rule, "scale": scale})
+    env, rule_policy = gym.make(env_id, **env_kwargs), make_policy(rule)
     obs, info = env.reset(seed=1_000_000_000)
     policy.reset(env)
     rule_policy.reset(env)
@@ -124,5 +125,5 @@ def test_a_shipped_residual_policy_plays_its_square_wave_within_its_scale(name, 
         obs, _, term, trunc, info = env.step(a)
         if term or trunc:
             break
-    assert max(abs(g) for g in gaps) <= 0.25 + 1e-6
-    assert max(abs(g) for g in gaps) > 0.01
+    assert max(abs(g) for g in gaps) <= scale + 1e-6
+    assert max(abs(g) for g in gaps) > 0.01 * scale
