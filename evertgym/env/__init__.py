@@ -20,6 +20,8 @@ if TYPE_CHECKING:
     from evertgym.env.eversion_env import EversionEnv
 
 ENTRY_POINT = "evertgym.env.eversion_env:EversionEnv"
+#: the domain-randomisation arguments a preset's ``[randomisation]`` table may set (ranges checked by the env)
+RANDOMISATION_KEYS = ("regulator_tau_s", "wall_friction", "pressure_noise_kpa", "insertion_noise_mm")
 
 
 def preset_kwargs(env_id: str) -> dict:
@@ -34,6 +36,10 @@ def preset_kwargs(env_id: str) -> dict:
     }
     kw.update(p.get("reward", {}))
     kw.update(p.get("observation", {}))
+    for key, value in p.get("randomisation", {}).items():
+        if key not in RANDOMISATION_KEYS:
+            raise ValueError(f"{env_id}: randomisation.{key} is not allowed: allowed {list(RANDOMISATION_KEYS)}")
+        kw[key] = tuple(value) if isinstance(value, list) else value
     return kw
 
 
