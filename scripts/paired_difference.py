@@ -3,9 +3,9 @@
 Reads both policies' episodes from evaluation stores (``evertgym eval --db``, ``scripts/baseline_table.py
 --db``) and prints, over the episodes both have, the two means, the mean difference (second minus first)
 with its normal 95% interval, the Wilcoxon signed-rank p-value and in how many episodes the second is lower.
-``--env-kwargs`` picks the episodes played with those env kwargs (default the randomised regulator lag), e.g. an
-outcome check's replays (``evertgym eval --check-outcomes`` stores them with the changed setting in ``sim_config``),
-so a difference can be shown to survive the solver's numerical settings.
+``--env-kwargs`` picks the episodes played with those env kwargs (default the randomised regulator lag, or none for an
+id whose preset draws the lag itself, such as Tortuous-v1), e.g. an outcome check's replays (``evertgym eval
+--check-outcomes`` stores them with the changed setting in ``sim_config``), so a difference can be shown to survive the solver's numerical settings.
 
     python scripts/paired_difference.py --env evertgym/UBend-v0 \\
         --a runs/baseline_table.sqlite:tuned \\
@@ -22,6 +22,7 @@ import sys
 import numpy as np
 from scipy import stats
 
+from evertgym.env import preset_kwargs
 from evertgym.env.eversion_env import HELD_OUT_SEED_BASE
 from evertgym.scoring.store import ResultStore
 
@@ -45,10 +46,17 @@ def main() -> None:
     ap.add_argument("--b", required=True, help="STORE:POLICY, the second policy")
     ap.add_argument("--key", default="max_contact_force_n", help="the per-episode figure (default max_contact_force_n)")
     ap.add_argument("--episodes", type=int, default=200)
-    ap.add_argument("--env-kwargs", default=json.dumps(KW),
-                    help="the env kwargs the episodes were played with, as JSON (default %(default)s); an outcome "
-                         'check\'s replay adds e.g. "sim_config": {"solver_tolerance": 0.0001}')
+    ap.add_argument("--env-kwargs", default=None,
+                    help=f"the env kwargs the episodes were played with, as JSON (default {json.dumps(KW)}, or {{}} for "
+                         "an id whose preset draws the regulator lag itself); an outcome check's replay adds e.g. "
+                         '"sim_config": {"solver_tolerance": 0.0001}')
     args = ap.parse_args()
+    if args.env_kwargs is None:
+        try:
+            built_in = "regulator_tau_s" in preset_kwargs(args.env)
+        except ValueError as e:
+            sys.exit(f"--env = {args.env!r} is not allowed: {e}")
+        args.env_kwargs = "{}" if built_in else json.dumps(KW)
     try:
         env_kwargs = json.loads(args.env_kwargs)
     except json.JSONDecodeError as e:
