@@ -51,18 +51,19 @@ def main() -> None:
                          "an id whose preset draws the regulator lag itself); an outcome check's replay adds e.g. "
                          '"sim_config": {"solver_tolerance": 0.0001}')
     args = ap.parse_args()
-    if args.env_kwargs is None:
+    if args.env_kwargs is None:  # the randomised lag, less what the id's preset draws itself
         try:
-            built_in = "regulator_tau_s" in preset_kwargs(args.env)
+            preset = preset_kwargs(args.env)
         except ValueError as e:
             sys.exit(f"--env = {args.env!r} is not allowed: {e}")
-        args.env_kwargs = "{}" if built_in else json.dumps(KW)
-    try:
-        env_kwargs = json.loads(args.env_kwargs)
-    except json.JSONDecodeError as e:
-        sys.exit(f"--env-kwargs = {args.env_kwargs!r} is not JSON ({e.msg}): allowed a JSON object of env kwargs")
-    if not isinstance(env_kwargs, dict):
-        sys.exit(f"--env-kwargs = {args.env_kwargs!r} is not allowed: a JSON object of env kwargs")
+        env_kwargs = {k: v for k, v in KW.items() if k not in preset}
+    else:
+        try:
+            env_kwargs = json.loads(args.env_kwargs)
+        except json.JSONDecodeError as e:
+            sys.exit(f"--env-kwargs = {args.env_kwargs!r} is not JSON ({e.msg}): allowed a JSON object of env kwargs")
+        if not isinstance(env_kwargs, dict):
+            sys.exit(f"--env-kwargs = {args.env_kwargs!r} is not allowed: a JSON object of env kwargs")
     a = _episodes(args.a, args.env, args.key, args.episodes, env_kwargs)
     b = _episodes(args.b, args.env, args.key, args.episodes, env_kwargs)
     seeds = sorted(set(a) & set(b))
