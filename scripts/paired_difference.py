@@ -2,7 +2,9 @@
 
 Reads both policies' episodes from evaluation stores (``evertgym eval --db``, ``scripts/baseline_table.py
 --db``) and prints, over the episodes both have, the two means, the mean difference (second minus first)
-with its normal 95% interval, the Wilcoxon signed-rank p-value and in how many episodes the second is lower.
+with its normal 95% interval, the Wilcoxon signed-rank p-value and in how many episodes the second is lower; then
+the two successes over the same episodes with the exact McNemar test on the discordant ones (passed by one policy
+only), so a lower force can be read beside what it cost in passes.
 ``--env-kwargs`` picks the episodes played with those env kwargs (default the randomised regulator lag, or none for an
 id whose preset draws the lag itself, such as Tortuous-v1), e.g. an outcome check's replays (``evertgym eval
 --check-outcomes`` stores them with the changed setting in ``sim_config``), so a difference can be shown to survive the solver's numerical settings.
@@ -29,13 +31,13 @@ from evertgym.scoring.store import ResultStore
 KW = {"regulator_tau_s": [0.1, 0.6]}
 
 
-def _episodes(spec: str, env_id: str, key: str, episodes: int, env_kwargs: dict) -> dict[int, float]:
+def _episodes(spec: str, env_id: str, episodes: int, env_kwargs: dict) -> dict[int, dict]:
     db, _, group = spec.partition(":")
     if not group:
         sys.exit(f"--a/--b = {spec!r}: expected STORE:POLICY (the policy's label in the store)")
     seeds = list(range(HELD_OUT_SEED_BASE, HELD_OUT_SEED_BASE + episodes))
     with ResultStore(db) as store:
-        return {r.spec.seed: float(r.result[key]) for r in store.results(group=group, seed=seeds)
+        return {r.spec.seed: r.result for r in store.results(group=group, seed=seeds)
                 if r.spec.scene["family"] == env_id and r.spec.scene["params"] == env_kwargs}
 
 
@@ -64,17 +66,31 @@ def main() -> None:
             sys.exit(f"--env-kwargs = {args.env_kwargs!r} is not JSON ({e.msg}): allowed a JSON object of env kwargs")
         if not isinstance(env_kwargs, dict):
             sys.exit(f"--env-kwargs = {args.env_kwargs!r} is not allowed: a JSON object of env kwargs")
-    a = _episodes(args.a, args.env, args.key, args.episodes, env_kwargs)
-    b = _episodes(args.b, args.env, args.key, args.episodes, env_kwargs)
-    seeds = sorted(set(a) & set(b))
+    ra = _episodes(args.a, args.env, args.episodes, env_kwargs)
+    rb = _episodes(args.b, args.env, args.episodes, env_kwargs)
+    seeds = sorted(set(ra) & set(rb))
     if len(seeds) < 2:
         sys.exit(f"only {len(seeds)} episodes in both stores for {args.env} with env kwargs {json.dumps(env_kwargs)}")
+    a = {s: float(ra[s][args.key]) for s in seeds}
+    b = {s: float(rb[s][args.key]) for s in seeds}
     d = np.array([b[s] - a[s] for s in seeds])
     half = 1.96 * d.std(ddof=1) / math.sqrt(len(d))
-    print(f"{args.env}, {len(seeds)} episodes in both, {args.key}: first {np.mean([a[s] for s in seeds]):.4f}, "
-          f"second {np.mean([b[s] for s in seeds]):.4f}")
+    print(f"{args.env}, {len(seeds)} episodes in both, {args.key}: first {np.mean(list(a.values())):.4f}, "
+          f"second {np.mean(list(b.values())):.4f}")
     print(f"second - first: {d.mean():+.4f}, 95% interval [{d.mean() - half:+.4f}, {d.mean() + half:+.4f}], "
           f"Wilcoxon p = {stats.wilcoxon(d).pvalue:.2g}, second lower in {(d < 0).sum()} of {len(d)}")
+    print(_success_line(ra, rb, seeds))
+
+
+def _success_line(ra: dict[int, dict], rb: dict[int, dict], seeds: list[int]) -> str:
+    """Both successes over the shared episodes and the exact (binomial) McNemar test on the discordant ones."""
+    sa = [bool(ra[s]["success"]) for s in seeds]
+    sb = [bool(rb[s]["success"]) for s in seeds]
+    only_a = sum(x and not y for x, y in zip(sa, sb))
+    only_b = sum(y and not x for x, y in zip(sa, sb))
+    p = stats.binomtest(only_a, only_a + only_b, 0.5).pvalue if only_a + only_b else 1.0
+    return (f"success: first {sum(sa)}/{len(seeds)}, second {sum(sb)}/{len(seeds)}; passed by the first only "
+            f"{only_a}, by the second only {only_b}, exact McNemar p = {p:.2g}")
 
 
 if __name__ == "__main__":

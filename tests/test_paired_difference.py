@@ -81,3 +81,23 @@ def test_unknown_env_gets_one_line(tmp_path):
     assert done.returncode == 1 and "Traceback" not in done.stderr
     assert done.stderr.strip().count("\n") == 0 and "--env = 'evertgym/Nope-v0' is not allowed" in done.stderr
     assert not (tmp_path / "s.sqlite").exists()
+
+
+def test_successes_are_compared_by_the_exact_mcnemar_test(tmp_path):
+    """12 shared episodes: A passes all, B fails the first 9 and passes the last 3; the discordant
+    pairs are 9 to 0, whose exact two-sided binomial p is 2 / 2**9 = 0.0039."""
+    db = tmp_path / "s.sqlite"
+    with ResultStore(db) as store:
+        for group in ("A", "B"):
+            for i in range(12):
+                spec = TrialSpec(design={}, design_name="evertgym/UBend-v0",
+                                 scene={"family": "evertgym/UBend-v0", "params": KW, "seed": SEED + i},
+                                 policy={"name": group}, seed=SEED + i, index=i, group=group)
+                store.add(spec, {"success": group == "A" or i >= 9, "time_s": 1.0, "peak_pressure_kpa": 1.0,
+                                 "max_contact_force_n": 1.0 + 0.01 * i, "stall_position_mm": None})
+    done = _run("--a", f"{db}:A", "--b", f"{db}:B", "--episodes", "12")
+    assert done.returncode == 0, done.stderr
+    assert ("success: first 12/12, second 3/12; passed by the first only 9, by the second only 0, "
+            "exact McNemar p = 0.0039") in done.stdout
+    done = _run("--a", f"{db}:B", "--b", f"{db}:A", "--episodes", "12")
+    assert "passed by the first only 0, by the second only 9, exact McNemar p = 0.0039" in done.stdout
