@@ -275,7 +275,9 @@ def test_eval_rows_side_by_side():
     rows = evaluate(["operator", {"name": "constant", "pressure_kpa": 3.0}], "evertgym/UBend-v0", 2)
     assert [r["policy"] for r in rows] == ["operator", "constant"]
     for r in rows:
-        assert set(r) >= {"policy", "episodes", "success_rate", "ci_low", "ci_high", "mean_peak_pressure_kpa", "mean_max_contact_force_n",
+        assert r["successes"] == round(r["success_rate"] * r["episodes"])
+        assert set(r) >= {"policy", "episodes", "successes", "success_rate", "ci_low", "ci_high", "mean_peak_pressure_kpa",
+                          "mean_max_contact_force_n",
                           "mean_peak_pressure_bend_kpa", "bend_reached_episodes", "peak_before_bend_episodes"}
         assert 0.0 <= r["ci_low"] <= r["success_rate"] <= r["ci_high"] <= 1.0
 

@@ -226,12 +226,25 @@ def test_the_eval_table_never_cuts_a_name(monkeypatch, capsys):
     import evertgym.agents.evaluate as evaluate
 
     name = "cycle:low_kpa=0,high_kpa=3,period_s=1"
-    row = {"policy": name, "episodes": 1, "success_rate": 1.0, "ci_low": 0.2, "ci_high": 1.0, "mean_time_to_goal_s": 1.0,
+    row = {"policy": name, "episodes": 1, "successes": 1, "success_rate": 1.0, "ci_low": 0.2, "ci_high": 1.0, "mean_time_to_goal_s": 1.0,
            "mean_peak_pressure_kpa": 3.0, "mean_max_contact_force_n": 1.0, "mean_peak_pressure_bend_kpa": 3.0,
            "bend_reached_episodes": 1, "peak_before_bend_episodes": 0}
     monkeypatch.setattr(evaluate, "evaluate", lambda *a, **k: [row])
     assert main(["eval", name, "--env", "evertgym/UBend-v0", "--episodes", "1"]) == 0
     assert f"\n{name} " in capsys.readouterr().out
+
+
+def test_the_eval_table_prints_the_count_of_passes(monkeypatch, capsys):
+    """171 of 200 is printed as a count beside the rate: a rounded 0.85 once read back as 170."""
+    import evertgym.agents.evaluate as evaluate
+
+    row = {"policy": "operator", "episodes": 200, "successes": 171, "success_rate": 0.855, "ci_low": 0.8, "ci_high": 0.9,
+           "mean_time_to_goal_s": 1.0, "mean_peak_pressure_kpa": 3.0, "mean_max_contact_force_n": 1.0,
+           "mean_peak_pressure_bend_kpa": 3.0, "bend_reached_episodes": 1, "peak_before_bend_episodes": 0}
+    monkeypatch.setattr(evaluate, "evaluate", lambda *a, **k: [row])
+    assert main(["eval", "operator", "--env", "evertgym/UBend-v0", "--episodes", "200"]) == 0
+    out = capsys.readouterr().out
+    assert " passed " in out and "   171    0.855 [0.800, 0.900]" in out
 
 
 # ---- 5. progress ------------------------------------------------------------------------------

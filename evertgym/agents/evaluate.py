@@ -161,6 +161,7 @@ def evaluate(policies: list[str | dict], env_id: str, episodes: int, env_kwargs:
         row = {
             "policy": _label(desc),
             "episodes": episodes,
+            "successes": len(wins),
             "success_rate": len(wins) / episodes,
             "ci_low": lo,
             "ci_high": hi,
