@@ -24,21 +24,14 @@ import sys
 import numpy as np
 from scipy import stats
 
-from evertgym.env import preset_kwargs
-from evertgym.env.eversion_env import HELD_OUT_SEED_BASE
-from evertgym.scoring.store import ResultStore
-
-KW = {"regulator_tau_s": [0.1, 0.6]}
+from evertgym.agents.stored import RANDOMISED_LAG, held_out_episodes, parse_env_kwargs
 
 
 def _episodes(spec: str, env_id: str, episodes: int, env_kwargs: dict) -> dict[int, dict]:
     db, _, group = spec.partition(":")
     if not group:
         sys.exit(f"--a/--b = {spec!r}: expected STORE:POLICY (the policy's label in the store)")
-    seeds = list(range(HELD_OUT_SEED_BASE, HELD_OUT_SEED_BASE + episodes))
-    with ResultStore(db) as store:
-        return {r.spec.seed: r.result for r in store.results(group=group, seed=seeds)
-                if r.spec.scene["family"] == env_id and r.spec.scene["params"] == env_kwargs}
+    return held_out_episodes(db, env_id, episodes, env_kwargs, group=group).get(group, {})
 
 
 def main() -> None:
@@ -49,23 +42,14 @@ def main() -> None:
     ap.add_argument("--key", default="max_contact_force_n", help="the per-episode figure (default max_contact_force_n)")
     ap.add_argument("--episodes", type=int, default=200)
     ap.add_argument("--env-kwargs", default=None,
-                    help=f"the env kwargs the episodes were played with, as JSON (default {json.dumps(KW)}, or {{}} for "
-                         "an id whose preset draws the regulator lag itself); an outcome check's replay adds e.g. "
+                    help=f"the env kwargs the episodes were played with, as JSON (default {json.dumps(RANDOMISED_LAG)}, or "
+                         "{} for an id whose preset draws the regulator lag itself); an outcome check's replay adds e.g. "
                          '"sim_config": {"solver_tolerance": 0.0001}')
     args = ap.parse_args()
-    if args.env_kwargs is None:  # the randomised lag, less what the id's preset draws itself
-        try:
-            preset = preset_kwargs(args.env)
-        except ValueError as e:
-            sys.exit(f"--env = {args.env!r} is not allowed: {e}")
-        env_kwargs = {k: v for k, v in KW.items() if k not in preset}
-    else:
-        try:
-            env_kwargs = json.loads(args.env_kwargs)
-        except json.JSONDecodeError as e:
-            sys.exit(f"--env-kwargs = {args.env_kwargs!r} is not JSON ({e.msg}): allowed a JSON object of env kwargs")
-        if not isinstance(env_kwargs, dict):
-            sys.exit(f"--env-kwargs = {args.env_kwargs!r} is not allowed: a JSON object of env kwargs")
+    try:
+        env_kwargs = parse_env_kwargs("--env-kwargs", args.env_kwargs, args.env)
+    except ValueError as e:
+        sys.exit(str(e))
     ra = _episodes(args.a, args.env, args.episodes, env_kwargs)
     rb = _episodes(args.b, args.env, args.episodes, env_kwargs)
     seeds = sorted(set(ra) & set(rb))
