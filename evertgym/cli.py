@@ -657,12 +657,12 @@ def cmd_eval(args: argparse.Namespace) -> int:
     print(f"{'validation' if args.validation else 'held-out'} episodes: episode and scene seeds {seed_base}-{seed_base + args.episodes - 1}, "
           f"{engine} engine")
     width = max([30] + [len(r["policy"]) for r in rows])  # a name is never cut
-    print(f"{'policy':{width}s} {'episodes':>8s} {'passed':>6s} {'success':>8s} {'95% CI':>15s} {'time_to_goal_s':>14s} "
+    print(f"{'policy':{width}s} {'episodes':>8s} {'passed':>6s} {'success':>8s} {'95% CI':>14s} {'time_to_goal_s':>14s} "
           f"{'peak_kpa':>9s} {'max_force_n':>11s} {'bend_peak_kpa':>13s} {'peak<bend':>9s}")
     for r in rows:
         print(
             f"{r['policy']:{width}s} {r['episodes']:>8d} {r['successes']:>6d} {r['success_rate']:>8.3f} "
-            f"[{r['ci_low']:.3f}, {r['ci_high']:.3f}]".ljust(width + 46)
+            f"[{r['ci_low']:.3f}, {r['ci_high']:.3f}]".ljust(width + 40)
             + f" {r['mean_time_to_goal_s']:>14.2f} {r['mean_peak_pressure_kpa']:>9.2f} {r['mean_max_contact_force_n']:>11.2f}"
             + f" {r['mean_peak_pressure_bend_kpa']:>13.2f} {r['peak_before_bend_episodes']:>9d}"
         )
