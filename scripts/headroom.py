@@ -16,8 +16,9 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from pathlib import Path
 
-from evertgym.agents.stored import RANDOMISED_LAG, held_out_episodes, parse_env_kwargs
+from evertgym.agents.stored import RANDOMISED_LAG, held_out_episodes, parse_env_kwargs, policy_episodes
 from evertgym.env.eversion_env import HELD_OUT_SEED_BASE
 
 
@@ -50,11 +51,8 @@ def main(argv: list[str] | None = None) -> int:
         if args.episodes < 1:
             raise ValueError(f"--episodes = {args.episodes} is out of range: allowed 1 or more")
         env_kwargs = parse_env_kwargs("--env-kwargs", args.env_kwargs, args.env)
-        db, _, group = args.ref.partition(":")
-        if not group:
-            raise ValueError(f"--ref = {args.ref!r}: expected STORE:POLICY (the policy's label in the store)")
+        db, group, ref = policy_episodes("--ref", args.ref, args.env, args.episodes, env_kwargs)
         seeds = list(range(HELD_OUT_SEED_BASE, HELD_OUT_SEED_BASE + args.episodes))
-        ref = held_out_episodes(db, args.env, args.episodes, env_kwargs, group=group).get(group, {})
         if len(ref) < args.episodes:
             raise ValueError(f"--ref = {args.ref!r} has {len(ref)} of the {args.episodes} held-out episodes of {args.env} "
                              f"with env kwargs {json.dumps(env_kwargs)}: allowed a policy with all of them")
@@ -68,10 +66,13 @@ def main(argv: list[str] | None = None) -> int:
     others, partial = {}, []
     for name, copies in found.items():
         for store, eps in copies:
-            if store == db and name == group:
-                continue
+            if name == group and Path(store).resolve() == Path(db).resolve():
+                continue  # the reference itself
             label = name if len(copies) == 1 else f"{store}:{name}"
-            (others.__setitem__(label, eps) if len(eps) == args.episodes else partial.append(f"{label} ({len(eps)})"))
+            if len(eps) == args.episodes:
+                others[label] = eps
+            else:
+                partial.append(f"{label} ({len(eps)})")
     out = headroom(ref, others, seeds)
     if args.json:
         print(json.dumps({"env_id": args.env, "env_kwargs": env_kwargs, "ref": group, "partial": partial, **out}, indent=2))

@@ -24,14 +24,7 @@ import sys
 import numpy as np
 from scipy import stats
 
-from evertgym.agents.stored import RANDOMISED_LAG, held_out_episodes, parse_env_kwargs
-
-
-def _episodes(spec: str, env_id: str, episodes: int, env_kwargs: dict) -> dict[int, dict]:
-    db, _, group = spec.partition(":")
-    if not group:
-        sys.exit(f"--a/--b = {spec!r}: expected STORE:POLICY (the policy's label in the store)")
-    return held_out_episodes(db, env_id, episodes, env_kwargs, group=group).get(group, {})
+from evertgym.agents.stored import RANDOMISED_LAG, parse_env_kwargs, policy_episodes
 
 
 def main() -> None:
@@ -48,10 +41,10 @@ def main() -> None:
     args = ap.parse_args()
     try:
         env_kwargs = parse_env_kwargs("--env-kwargs", args.env_kwargs, args.env)
+        ra = policy_episodes("--a", args.a, args.env, args.episodes, env_kwargs)[2]
+        rb = policy_episodes("--b", args.b, args.env, args.episodes, env_kwargs)[2]
     except ValueError as e:
         sys.exit(str(e))
-    ra = _episodes(args.a, args.env, args.episodes, env_kwargs)
-    rb = _episodes(args.b, args.env, args.episodes, env_kwargs)
     seeds = sorted(set(ra) & set(rb))
     if len(seeds) < 2:
         sys.exit(f"only {len(seeds)} episodes in both stores for {args.env} with env kwargs {json.dumps(env_kwargs)}")

@@ -54,3 +54,12 @@ def held_out_episodes(db: str | Path, env_id: str, episodes: int, env_kwargs: di
             if r.spec.scene["family"] == env_id and r.spec.scene["params"] == env_kwargs:
                 out.setdefault(r.spec.group, {})[r.spec.seed] = r.result
     return out
+
+
+def policy_episodes(flag: str, spec: str, env_id: str, episodes: int, env_kwargs: dict) -> tuple[str, str, dict[int, dict]]:
+    """``STORE:POLICY`` (a flag's value) split into the store and the policy's label, with that policy's held-out
+    episodes (:func:`held_out_episodes`).  A ValueError of one line names the flag when the label is missing."""
+    db, _, group = spec.partition(":")
+    if not group:
+        raise ValueError(f"{flag} = {spec!r}: expected STORE:POLICY (the policy's label in the store)")
+    return db, group, held_out_episodes(db, env_id, episodes, env_kwargs, group=group).get(group, {})
