@@ -33,12 +33,14 @@ def test_a_path_a_run_folder_and_a_name_resolve_alike():
     zip_path = shipped_dir() / "ubend_ppo" / "final.zip"
     assert resolve_policy_path("ubend_ppo") == resolve_policy_path(zip_path.parent) == zip_path == resolve_policy_path(zip_path)
     assert shipped_policies() == ["colon_ppo", "colon_ppo_operator", "colon_residual_operator", "tortuous_ppo_operator",
-                                  "tortuous_residual_operator", "ubend_ppo", "ubend_ppo_operator", "ubend_residual_operator"]
+                                  "tortuous_residual_operator", "tortuous_v1_residual_operator", "ubend_ppo", "ubend_ppo_operator",
+                                  "ubend_residual_operator"]
 
 
 def test_unknown_policy_names_the_shipped_ones():
     shipped = (r"\['colon_ppo', 'colon_ppo_operator', 'colon_residual_operator', 'tortuous_ppo_operator', "
-               r"'tortuous_residual_operator', 'ubend_ppo', 'ubend_ppo_operator', 'ubend_residual_operator'\]")
+               r"'tortuous_residual_operator', 'tortuous_v1_residual_operator', 'ubend_ppo', 'ubend_ppo_operator', "
+               r"'ubend_residual_operator'\]")
     with pytest.raises(ValueError, match=rf"shipped: {shipped}"):
         load_policy("no_such_policy")
 
@@ -56,7 +58,8 @@ def test_loaded_policy_acts_like_the_cli_path():
 
 
 @pytest.mark.parametrize("name", ["colon_ppo", "colon_ppo_operator", "colon_residual_operator", "tortuous_ppo_operator",
-                                  "tortuous_residual_operator", "ubend_ppo", "ubend_ppo_operator", "ubend_residual_operator"])
+                                  "tortuous_residual_operator", "tortuous_v1_residual_operator", "ubend_ppo", "ubend_ppo_operator",
+                                  "ubend_residual_operator"])
 def test_a_shipped_policy_was_trained_with_its_config_and_the_operator_ones_never_see_the_tip(name):
     """agents/<name>/final_env.json (written by the training) matches agents/<name>.toml, so
     `evertgym train agents/<name>.toml` reruns what is shipped; the *_operator policies
@@ -71,9 +74,10 @@ def test_a_shipped_policy_was_trained_with_its_config_and_the_operator_ones_neve
     assert meta.get("deterministic", True) == cfg.get("deterministic", True)
     assert meta.get("residual") == cfg.get("residual_spec")  # a residual policy corrects the rule its config names
     policy, env_id, env_kwargs = load_policy(name)
-    if name.endswith("_operator"):
-        assert env_kwargs["tip_sensing"] is False and cfg["env_kwargs"]["regulator_tau_s"] == [0.1, 0.6]
-        assert gym.make(env_id, **env_kwargs).observation_space.shape == (15,)
+    if name.endswith("_operator"):  # the lag comes from the config, or from the id's preset (Tortuous-v1)
+        env = gym.make(env_id, **env_kwargs)
+        assert env_kwargs["tip_sensing"] is False and env.unwrapped.regulator_tau_range == (0.1, 0.6)
+        assert env.observation_space.shape == (3 * (cfg["env_kwargs"].get("history", 4) + 1),)  # no tip force
 
 
 def test_compare_runs_tells_identical_policies_from_different_ones(capsys, tmp_path):
@@ -103,6 +107,7 @@ def test_compare_runs_tells_identical_policies_from_different_ones(capsys, tmp_p
 @pytest.mark.parametrize(("name", "env_id", "rule", "scale"), [
     ("colon_residual_operator", "evertgym/Colon-v0", "cycle:low_kpa=0,high_kpa=3,period_s=1", 0.25),
     ("tortuous_residual_operator", "evertgym/Tortuous-v0", "cycle", 0.25),
+    ("tortuous_v1_residual_operator", "evertgym/Tortuous-v1", "cycle:low_kpa=2,high_kpa=8,period_s=2", 0.5),
     ("ubend_residual_operator", "evertgym/UBend-v0", "operator:start_kpa=0.8,step_kpa=0.1,stall_s=0.5,relax_kpa_per_s=0.25",
      0.05),
 ])
