@@ -76,7 +76,8 @@ def test_a_shipped_policy_was_trained_with_its_config_and_the_operator_ones_neve
     if name.endswith("_operator"):  # the lag comes from the config, or from the id's preset (Tortuous-v1)
         env = gym.make(env_id, **env_kwargs)
         assert env_kwargs["tip_sensing"] is False and env.unwrapped.regulator_tau_range == (0.1, 0.6)
-        assert env.observation_space.shape == (3 * (cfg["env_kwargs"].get("history", 4) + 1),)  # no tip force
+        assert env.observation_space.shape == (3 * (env.unwrapped.history + 1),)  # 3 per sample: no tip force
+        env.close()
 
 
 def test_compare_runs_tells_identical_policies_from_different_ones(capsys, tmp_path):
