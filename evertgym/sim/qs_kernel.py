@@ -1302,3 +1302,173 @@ def select_features(nodes, seg_rad, box_lo, box_hi, reach):
             out[cnt] = f
             cnt += 1
     return out[:cnt]
+
+
+@nb.njit(cache=True, nogil=True)
+def max_node_shift(theta0, n0, phi, seg_len, ref):
+    """Largest distance (m) of the chain's nodes at ``phi`` (:func:`chain_nodes`) from ``ref``."""
+    nodes, _ = chain_nodes(theta0, n0, phi, seg_len)
+    d = 0.0
+    for j in range(nodes.shape[0]):
+        d = max(d, math.hypot(nodes[j, 0] - ref[j, 0], nodes[j, 1] - ref[j, 1]))
+    return d
+
+
+@nb.njit(cache=True, nogil=True)
+def gather_walls(sel, wa, wb, wpiece, wvert, wrad, wmu):
+    """The wall features ``sel`` (indices, ascending) of the scene's arrays, in one pass."""
+    k = sel.shape[0]
+    a = np.empty((k, 2))
+    b = np.empty((k, 2))
+    piece = np.empty(k, np.int64)
+    vert = np.empty(k, wvert.dtype)
+    rad = np.empty(k)
+    mu = np.empty(k)
+    for i in range(k):
+        f = sel[i]
+        a[i, 0] = wa[f, 0]
+        a[i, 1] = wa[f, 1]
+        b[i, 0] = wb[f, 0]
+        b[i, 1] = wb[f, 1]
+        piece[i] = wpiece[f]
+        vert[i] = wvert[f]
+        rad[i] = wrad[f]
+        mu[i] = wmu[f]
+    return a, b, piece, vert, rad, mu
+
+
+@nb.njit(cache=True, nogil=True)
+def window_friction(e_s, e_wall, e_wl, e_t, e_ml, sel, ds, n, a):
+    """The lagged friction entries (material coordinate ``e_s``, m, -1 for the tip's cap; wall feature
+    ``e_wall``; wall point ``e_wl``; tangent ``e_t``; ``mu N`` ``e_ml``) of a solve of joints ``a..`` of
+    ``n`` segments of length ``ds`` (m) seeing the features ``sel`` (ascending): whether each entry's
+    robot point is in the window, and the entries in the window on a seen feature, their feature given
+    as its position in ``sel``."""
+    ne = e_s.shape[0]
+    in_window = np.empty(ne, np.bool_)
+    pos = np.empty(ne, np.int64)
+    cnt = 0
+    for i in range(ne):
+        s = e_s[i]
+        if s < 0.0:
+            j = n - 1
+        else:
+            j = min(np.int64(math.floor(max(s, 0.0) / ds + 1e-9)), n - 1)
+        in_window[i] = j >= a
+        pos[i] = -1
+        if in_window[i]:
+            q = np.searchsorted(sel, e_wall[i])
+            if q < sel.shape[0] and sel[q] == e_wall[i]:
+                pos[i] = q
+                cnt += 1
+    o_s = np.empty(cnt)
+    o_w = np.empty(cnt, np.int64)
+    o_wl = np.empty((cnt, 2))
+    o_t = np.empty((cnt, 2))
+    o_ml = np.empty(cnt)
+    c = 0
+    for i in range(ne):
+        if pos[i] >= 0:
+            o_s[c] = e_s[i]
+            o_w[c] = pos[i]
+            o_wl[c, 0] = e_wl[i, 0]
+            o_wl[c, 1] = e_wl[i, 1]
+            o_t[c, 0] = e_t[i, 0]
+            o_t[c, 1] = e_t[i, 1]
+            o_ml[c] = e_ml[i]
+            c += 1
+    return in_window, o_s, o_w, o_wl, o_t, o_ml
+
+
+@nb.njit(cache=True, nogil=True)
+def kinked_joints(phi, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual, fraction):
+    """The joints' moments (N m, :func:`joint_moments`) and the joints whose moment reaches ``fraction``
+    of the collapse moment ``2 mw_j`` (none if no joint has one)."""
+    moments = joint_moments(phi, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual)
+    m = phi.shape[0]
+    out = np.empty(m, np.int64)
+    cnt = 0
+    anyc = False
+    for j in range(m):
+        if 2.0 * mw_j[j] > 0.0:
+            anyc = True
+            break
+    if anyc:
+        for j in range(m):
+            if abs(moments[j]) >= fraction * (2.0 * mw_j[j]):
+                out[cnt] = j
+                cnt += 1
+    return moments, out[:cnt]
+
+
+@nb.njit(cache=True, nogil=True)
+def piece_window(nodes, seg_rad, held_nodes, held_rad, a, box_lo, box_hi, sel, a_sel, b_sel, wpiece_g, wvert, wrad, pc0, u,
+                 cos_u, sin_u, reach):
+    """The compliant wall pieces of a solve of joints ``a..`` (``nodes``, ``seg_rad``; the held body
+    ``held_nodes``, ``held_rad``) seeing the features ``sel`` (their ends ``a_sel``, ``b_sel`` in their
+    piece's frame, pieces ``wpiece_g``): the pieces within ``reach`` (m) of the window are unknowns,
+    except those the held body touches (held with it, else a solve could push one into it).  Returns
+    the features' ends ``wa``, ``wb`` (world coordinates for a piece held where it is, its frame for an
+    unknown one), the unknown pieces (ascending) and each feature's unknown piece (its position among
+    them; -1 for a static wall or a held piece).  ``cos_u``, ``sin_u``: the cosine and sine of every
+    piece's rotation ``u[:, 2]``."""
+    nf = sel.shape[0]
+    npc = u.shape[0]
+    wpiece = np.full(nf, -1, np.int64)
+    any_piece = False
+    for f in range(nf):
+        if wpiece_g[f] >= 0:
+            any_piece = True
+            break
+    if not any_piece:
+        return a_sel, b_sel, np.zeros(0, np.int64), wpiece
+    blo = np.empty((nf, 2))
+    bhi = np.empty((nf, 2))
+    for f in range(nf):
+        blo[f, 0] = box_lo[sel[f], 0]
+        blo[f, 1] = box_lo[sel[f], 1]
+        bhi[f, 0] = box_hi[sel[f], 0]
+        bhi[f, 1] = box_hi[sel[f], 1]
+    unknown = np.zeros(npc, np.bool_)
+    close = select_features(nodes, seg_rad, blo, bhi, reach)
+    n_unknown = 0
+    for i in range(close.shape[0]):
+        p = wpiece_g[close[i]]
+        if p >= 0 and not unknown[p]:
+            unknown[p] = True
+            n_unknown += 1
+    if a > 0 and n_unknown > 0:
+        held = touching(held_nodes, held_rad, blo, bhi, a_sel, b_sel, wpiece_g, wvert, wrad, pc0, u, reach)
+        for f in range(nf):
+            if held[f] and wpiece_g[f] >= 0:
+                unknown[wpiece_g[f]] = False
+    n_unknown = 0
+    for p in range(npc):
+        if unknown[p]:
+            n_unknown += 1
+    pieces = np.empty(n_unknown, np.int64)
+    local = np.full(npc, -1, np.int64)
+    c = 0
+    for p in range(npc):
+        if unknown[p]:
+            pieces[c] = p
+            local[p] = c
+            c += 1
+    wa = a_sel.copy()
+    wb = b_sel.copy()
+    for f in range(nf):
+        p = wpiece_g[f]
+        if p < 0:
+            continue
+        wpiece[f] = local[p]
+        if unknown[p]:
+            continue  # in the piece's frame
+        cs = cos_u[p]
+        sn = sin_u[p]
+        o0 = pc0[p, 0] + u[p, 0]
+        o1 = pc0[p, 1] + u[p, 1]
+        wa[f, 0] = o0 + cs * a_sel[f, 0] - sn * a_sel[f, 1]
+        wa[f, 1] = o1 + sn * a_sel[f, 0] + cs * a_sel[f, 1]
+        wb[f, 0] = o0 + cs * b_sel[f, 0] - sn * b_sel[f, 1]
+        wb[f, 1] = o1 + sn * b_sel[f, 0] + cs * b_sel[f, 1]
+    return wa, wb, pieces, wpiece

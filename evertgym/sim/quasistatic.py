@@ -282,6 +282,9 @@ class QuasiStaticSim(GrowingTube):
         self._req_ahead = 0.0
         self._stats = SolveStats()
         self._retry_ok = self._retry_wanted = False  # set around a growth increment's solve (_advance)
+        # the lagged friction entries, arrays: ``s`` the robot point's material coordinate (m; -1 for the
+        # tip's cap, which is always the newest material), ``wall`` its wall feature, ``wl`` the wall
+        # point in the wall's frame, ``t`` the tangent, ``ml`` mu times the lagged normal force (N)
         self._fric = {"s": np.zeros(0), "wall": np.zeros(0, np.int64), "wl": np.zeros((0, 2)), "t": np.zeros((0, 2)), "ml": np.zeros(0)}
         self._seg_force = np.zeros((0, 2))  # per segment: sum of wall forces (N), sum of p x f (N m)
         self._seg_moment = np.zeros(0)
@@ -728,14 +731,15 @@ class QuasiStaticSim(GrowingTube):
             if self.length >= start and i not in self._bands_reached:
                 self._bands_reached.add(i)
                 self._event("band_at_tip", band=i, reduction=reduction)
-        moments = self.joint_moments()
-        mc = 2.0 * self._mw_all[: len(moments)]
-        kinked = np.nonzero(np.abs(moments) >= KINK_MOMENT_FRACTION * mc)[0] if np.any(mc > 0) else ()
+        n = len(self.phi)
+        moments, kinked = qk.kinked_joints(self.phi, self._k_all[:n], self._mw_all[:n], *_LAW[:3], _LAW[3], RESIDUAL_STIFFNESS_FRACTION,
+                                           KINK_MOMENT_FRACTION)
         for j in kinked:
             if int(j) not in self._kinked:
                 self._kinked.add(int(j))
                 self._event("kink", joint_mm=round(float(self.nodes[j]) * 1e3, 3), at_band=bool(self._r3[j] < 0.999 * self.design.radius_m**3))
         if self._kinked:
+            mc = 2.0 * self._mw_all[:n]
             self._kinked = {j for j in self._kinked if abs(moments[j]) >= 0.8 * KINK_MOMENT_FRACTION * mc[j]}
 
     # ---- geometry queries ---------------------------------------------------------------------
@@ -860,43 +864,21 @@ class QuasiStaticSim(GrowingTube):
         if qk.overlaps(theta0, n0, phi, seg_len, seg_rad, sel, *self._feature_boxes, walls.a, walls.b, walls.piece, walls.vertex,
                        walls.radius, self._pc0, self._u_all):  # the features an overlap can involve are all in sel
             return False
-        s_nodes = np.append(self.nodes[a : a + m], self.length)
+        s_nodes = np.concatenate((self.nodes[a : a + m], (self.length,)))
         k_j = np.ascontiguousarray(self._k_all[a : a + m])
         mw_j = np.ascontiguousarray(self._mw_all[a : a + m])
-        wpiece_g = walls.piece[sel]
+        a_sel, b_sel, wpiece_g, w_vertex, w_radius, w_friction = qk.gather_walls(sel, walls.a, walls.b, walls.piece, walls.vertex,
+                                                                                 walls.radius, walls.friction)
         # the wall pieces the robot is about to touch are unknowns (independent springs); the other
         # pieces' features are walls held where they are for this solve
-        a_sel, b_sel = walls.a[sel], walls.b[sel]
         wa, wb = a_sel, b_sel
         pieces = np.zeros(0, np.int64)
         wpiece = np.full(len(sel), -1, np.int64)
-        if self._piece_bodies and np.any(wpiece_g >= 0):
-            wa, wb = a_sel.copy(), b_sel.copy()
-            blo, bhi = self._feature_boxes[0][sel], self._feature_boxes[1][sel]
-            close = np.zeros(len(sel), np.bool_)
-            close[qk.select_features(nodes[a:], seg_rad, blo, bhi, cfg.barrier_gap_m + _PIECE_MARGIN_M)] = True
-            unknown = np.zeros(len(self._piece_bodies) + 1, np.bool_)  # per piece; the last entry: static walls (-1)
-            unknown[wpiece_g[(wpiece_g >= 0) & close]] = True
-            if a > 0 and np.any(unknown):  # a piece the held body touches is held with it (else a solve could push it into the body)
-                held = qk.touching(nodes[: a + 1], self.seg_rad[:a], blo, bhi, a_sel, b_sel, wpiece_g,
-                                   walls.vertex[sel], walls.radius[sel], self._pc0, self._u_all, cfg.barrier_gap_m + _PIECE_MARGIN_M)
-                unknown[wpiece_g[(wpiece_g >= 0) & held]] = False
-            pieces = np.nonzero(unknown)[0]
-            moving = wpiece_g >= 0
-            if np.any(moving):
-                q = self._u_all[wpiece_g[moving]]
-                c, sn = np.cos(q[:, 2]), np.sin(q[:, 2])
-                o = self._pc0[wpiece_g[moving]] + q[:, :2]
-                for arr in (wa, wb):
-                    loc = arr[moving].copy()
-                    arr[moving, 0] = o[:, 0] + c * loc[:, 0] - sn * loc[:, 1]
-                    arr[moving, 1] = o[:, 1] + sn * loc[:, 0] + c * loc[:, 1]
-            solved = unknown[wpiece_g]
-            wa[solved], wb[solved] = a_sel[solved], b_sel[solved]  # in the piece's frame
-            local = np.full(len(self._piece_bodies) + 1, -1, np.int64)
-            local[pieces] = np.arange(len(pieces))
-            wpiece = np.where(wpiece_g >= 0, local[np.maximum(wpiece_g, 0)], -1)
-            wpiece[wpiece_g < 0] = -1
+        if self._piece_bodies:
+            wa, wb, pieces, wpiece = qk.piece_window(nodes[a:], seg_rad, nodes[: a + 1], self.seg_rad[:a], a, *self._feature_boxes, sel,
+                                                     a_sel, b_sel, wpiece_g, w_vertex, w_radius, self._pc0, self._u_all,
+                                                     np.cos(self._u_all[:, 2]), np.sin(self._u_all[:, 2]),
+                                                     cfg.barrier_gap_m + _PIECE_MARGIN_M)
         pc0 = self._pc0[pieces] if len(pieces) else np.zeros((0, 2))
         u = self._u_all[pieces] if len(pieces) else np.zeros((0, 3))
         if len(pieces):
@@ -906,21 +888,17 @@ class QuasiStaticSim(GrowingTube):
             k_travel = np.full(len(pieces), self._k_travel)
         else:
             kaa, fh, travel, k_travel = np.zeros((0, 3, 3)), np.zeros(0), np.zeros(0), np.zeros(0)
-        sel_pos = np.full(len(walls.a), -1, np.int64)
-        sel_pos[sel] = np.arange(len(sel))
         robot_mu = np.full(m, cfg.wall_friction)
         robot_mu[-1] = cfg.tip_friction
         fric = self._fric
-        j_all = self._entry_segments(fric, a)
-        in_window = j_all >= a
-        mine = in_window & (sel_pos[fric["wall"]] >= 0)
+        in_window, f_s, f_w, f_wl, f_t, f_ml = qk.window_friction(fric["s"], fric["wall"], fric["wl"], fric["t"], fric["ml"], sel,
+                                                                  self.ds, len(self.seg_len), a)
         iters = 0
         for budget in (cfg.max_newton_iterations, _ESCALATION * cfg.max_newton_iterations):
             (status, it, res_m, res_f, e_s, e_w, e_wl, e_t, e_ml, acc_f, acc_m, tip, rows) = qk.solve_increment(
                 theta0, n0, phi, phi_ref, seg_len, seg_rad, s_nodes, k_j, mw_j, *_LAW[:3], _LAW[3], RESIDUAL_STIFFNESS_FRACTION,
-                wa, wb, wpiece, walls.vertex[sel], walls.radius[sel], walls.friction[sel], robot_mu, pc0, u, kaa, fh,
-                travel, k_travel, fric["s"][mine], sel_pos[fric["wall"][mine]], np.ascontiguousarray(fric["wl"][mine]),
-                np.ascontiguousarray(fric["t"][mine]), fric["ml"][mine], cfg.barrier_gap_m, self._kappa, cfg.friction_slip_m, tol_m,
+                wa, wb, wpiece, w_vertex, w_radius, w_friction, robot_mu, pc0, u, kaa, fh,
+                travel, k_travel, f_s, f_w, f_wl, f_t, f_ml, cfg.barrier_gap_m, self._kappa, cfg.friction_slip_m, tol_m,
                 tol_f, budget, _MAX_MOVE_M, cfg.friction_lag_iterations)
             iters += it
             if status in (qk.CONVERGED, qk.INFEASIBLE_START) or self._retry_ok:
@@ -933,7 +911,7 @@ class QuasiStaticSim(GrowingTube):
         self._stats.newton_iterations += iters
         if status == qk.INFEASIBLE_START:
             return False
-        reach = float(np.max(np.hypot(*(qk.chain_nodes(theta0, n0, phi, seg_len)[0] - nodes[a:]).T)))
+        reach = qk.max_node_shift(theta0, n0, phi, seg_len, nodes[a:])
         if reach > margin:  # it went past the walls it saw: again, seeing farther (_solve_window)
             return reach
         self._stats.solves += 1
@@ -969,18 +947,6 @@ class QuasiStaticSim(GrowingTube):
         self.tip_contact = np.array([tip[1], tip[2]])
         self._tip_clearance = float(tip[3])
         return True
-
-    # ---- lagged friction ------------------------------------------------------------------
-    # Entries are arrays: ``s`` the robot point's material coordinate (m; -1 for the tip's cap,
-    # which is always the newest material), ``wall`` its wall feature, ``wl`` the wall point in
-    # the wall's frame, ``t`` the tangent, ``ml`` mu times the lagged normal force (N).
-    def _entry_segments(self, fric: dict, a: int) -> np.ndarray:
-        """Segment of each entry's robot point."""
-        n = len(self.seg_len)
-        smat = fric["s"]
-        j = np.minimum(np.floor(np.maximum(smat, 0.0) / self.ds + 1e-9).astype(np.int64), n - 1)
-        j[smat < 0] = n - 1
-        return j
 
     # ---- events, stalls ---------------------------------------------------------------------
     @property

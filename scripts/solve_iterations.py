@@ -1,0 +1,87 @@
+"""Where the quasi-static engine's compiled solve spends its time: solves by their Newton iterations.
+
+Plays ``--steps`` random-action steps (seed 0) of each env on the quasi-static default, timing every call
+of the compiled solve (:func:`evertgym.sim.qs_kernel.solve_increment`, both friction passes included), and
+prints the solves grouped by their Newton iterations: how many, their share of the compiled time, and the
+share of the run's wall time spent outside the compiled solve (the engine's and the env's Python).
+
+    python scripts/solve_iterations.py                          # UBend-v0 300 steps, Colon-v0 150
+    python scripts/solve_iterations.py --env evertgym/Tortuous-v0 --steps 200
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+_BUCKETS = ((0, 1), (1, 8), (8, 13), (13, 20), (20, 40), (40, 80), (80, 10**9))
+
+
+def measure(env_id: str, steps: int) -> dict:
+    """Per-solve iterations and compiled time of ``steps`` random-action steps of ``env_id``."""
+    import gymnasium as gym
+    import numpy as np
+
+    import evertgym  # noqa: F401  (registers the envs)
+    from evertgym.sim import quasistatic as qs
+
+    env = gym.make(env_id, sim_config={"engine": "quasistatic"})
+    env.reset(seed=0)
+    env.step(np.zeros(env.action_space.shape, np.float32))  # compile (or load) the kernel outside the timing
+    env.reset(seed=0)
+    inner = qs.qk.solve_increment
+    iters: list[int] = []
+    times: list[float] = []
+    windows: list[int] = []
+
+    def timed(*args):
+        t0 = time.perf_counter()
+        out = inner(*args)
+        times.append(time.perf_counter() - t0)
+        iters.append(int(out[1]))
+        windows.append(len(args[2]))
+        return out
+
+    qs.qk.solve_increment = timed
+    rng = np.random.default_rng(0)
+    try:
+        t0 = time.perf_counter()
+        for _ in range(steps):
+            _, _, term, trunc, _ = env.step(rng.uniform(env.action_space.low, env.action_space.high).astype(np.float32))
+            if term or trunc:
+                env.reset()
+        wall = time.perf_counter() - t0
+    finally:
+        qs.qk.solve_increment = inner
+    env.close()
+    it, t = np.array(iters), np.array(times)
+    rows = []
+    for lo, hi in _BUCKETS:
+        s = (it >= lo) & (it < hi)
+        rows.append({"iterations": f"{lo}" if hi == lo + 1 else (f"{lo}+" if hi > 10**6 else f"{lo}-{hi - 1}"),
+                     "solves": int(s.sum()), "time_share": float(t[s].sum() / t.sum()) if t.sum() else 0.0})
+    return {"env_id": env_id, "steps": steps, "steps_per_s": steps / wall, "solves": len(it),
+            "iterations_per_solve": float(it.mean()) if len(it) else 0.0, "joints_per_solve": float(np.mean(windows)) if windows else 0.0,
+            "compiled_share": float(t.sum() / wall), "buckets": rows}
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--env", action="append", help="env id (repeatable; default UBend-v0 and Colon-v0)")
+    ap.add_argument("--steps", type=int, default=0, help="random-action steps per env (default 300 for UBend-v0, 150 otherwise)")
+    args = ap.parse_args(argv)
+    if args.steps < 0:
+        ap.error(f"--steps = {args.steps} is out of range: allowed 1 or more (0: the default)")
+    for env_id in args.env or ["evertgym/UBend-v0", "evertgym/Colon-v0"]:
+        steps = args.steps or (300 if "UBend" in env_id else 150)
+        r = measure(env_id, steps)
+        print(f"{env_id}: {steps} steps, {r['steps_per_s']:.0f} steps/s, {r['solves']} solves, {r['iterations_per_solve']:.2f} Newton "
+              f"iterations per solve, {r['joints_per_solve']:.1f} joints per window; the compiled solve is "
+              f"{100 * r['compiled_share']:.0f}% of the wall time")
+        print("  iterations   solves   share of the compiled time")
+        for b in r["buckets"]:
+            print(f"  {b['iterations']:>10s} {b['solves']:8d}   {100 * b['time_share']:5.1f}%")
+
+
+if __name__ == "__main__":
+    main()

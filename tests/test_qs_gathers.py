@@ -1,0 +1,147 @@
+"""The quasi-static engine's compiled gathers give the same bits as the numpy expressions they replaced.
+
+A solve's set-up (the window's wall features, its lagged friction entries, how far a solve moved the
+nodes, the kinked joints) moved from numpy expressions into :mod:`evertgym.sim.qs_kernel` (about 50
+numpy calls per solve).  The answers must not move by a bit, or the shipped policies would no longer
+retrain exactly from their configs: these tests hold each helper to its numpy original on random input.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from evertgym.model.pressure import KINK_MOMENT_FRACTION
+from evertgym.sim import qs_kernel as qk
+from evertgym.sim.discretize import RESIDUAL_STIFFNESS_FRACTION
+from evertgym.sim.quasistatic import _LAW
+
+
+def test_the_window_friction_entries_are_those_numpy_selected():
+    rng = np.random.default_rng(3)
+    ds = 0.0075
+    for _ in range(300):
+        n, n_walls, ne = int(rng.integers(2, 60)), int(rng.integers(1, 400)), int(rng.integers(0, 40))
+        a = int(rng.integers(0, n))
+        sel = np.sort(rng.choice(n_walls, size=int(rng.integers(0, n_walls + 1)), replace=False)).astype(np.int64)
+        s = rng.uniform(-0.01, n * ds * 1.1, ne)
+        s[rng.random(ne) < 0.2] = -1.0  # the tip's cap
+        s[: ne // 4] = np.round(s[: ne // 4] / ds) * ds  # on a joint, where the 1e-9 matters
+        wall = rng.integers(0, n_walls, ne).astype(np.int64)
+        wl, t, ml = rng.normal(size=(ne, 2)), rng.normal(size=(ne, 2)), rng.random(ne)
+        # the numpy expressions of the engine before (git 4d2c01e, QuasiStaticSim._entry_segments and _solve_window_at)
+        j = np.minimum(np.floor(np.maximum(s, 0.0) / ds + 1e-9).astype(np.int64), n - 1)
+        j[s < 0] = n - 1
+        in_window = j >= a
+        sel_pos = np.full(n_walls, -1, np.int64)
+        sel_pos[sel] = np.arange(len(sel))
+        mine = in_window & (sel_pos[wall] >= 0)
+        got = qk.window_friction(s, wall, wl, t, ml, sel, ds, n, a)
+        want = (in_window, s[mine], sel_pos[wall[mine]], wl[mine], t[mine], ml[mine])
+        for g, w in zip(got, want):
+            assert g.dtype == w.dtype and g.shape == w.shape and np.array_equal(g, w)
+
+
+def test_the_gathered_wall_features_are_numpy_fancy_indexing():
+    rng = np.random.default_rng(4)
+    nw = 500
+    arrays = (rng.normal(size=(nw, 2)), rng.normal(size=(nw, 2)), rng.integers(-1, 20, nw).astype(np.int64),
+              rng.random(nw) < 0.5, rng.random(nw), rng.random(nw))
+    for k in (0, 1, 37, nw):
+        sel = np.sort(rng.choice(nw, size=k, replace=False)).astype(np.int64)
+        for g, arr in zip(qk.gather_walls(sel, *arrays), arrays):
+            assert g.dtype == arr.dtype and np.array_equal(g, arr[sel])
+
+
+def test_the_largest_node_shift_is_numpys_hypot_maximum():
+    rng = np.random.default_rng(5)
+    for _ in range(200):
+        m = int(rng.integers(1, 80))
+        phi, seg_len = rng.normal(scale=0.3, size=m), rng.uniform(1e-4, 0.0075, m)
+        theta0, n0 = float(rng.normal()), rng.normal(size=2)
+        ref = qk.chain_nodes(theta0, n0, phi + rng.normal(scale=1e-3, size=m), seg_len)[0]
+        want = float(np.max(np.hypot(*(qk.chain_nodes(theta0, n0, phi, seg_len)[0] - ref).T)))
+        assert qk.max_node_shift(theta0, n0, phi, seg_len, ref) == want
+
+
+def test_the_kinked_joints_are_those_numpy_found():
+    rng = np.random.default_rng(6)
+    for _ in range(200):
+        m = int(rng.integers(1, 80))
+        phi = rng.normal(scale=0.5, size=m)
+        k = rng.uniform(1e-3, 1e-1, m)
+        mw = rng.uniform(1e-4, 5e-3, m) * (rng.random() < 0.9)
+        moments = qk.joint_moments(phi, k, mw, *_LAW[:3], _LAW[3], RESIDUAL_STIFFNESS_FRACTION)
+        mc = 2.0 * mw
+        want = np.nonzero(np.abs(moments) >= KINK_MOMENT_FRACTION * mc)[0] if np.any(mc > 0) else np.zeros(0, np.int64)
+        got_m, got = qk.kinked_joints(phi, k, mw, *_LAW[:3], _LAW[3], RESIDUAL_STIFFNESS_FRACTION, KINK_MOMENT_FRACTION)
+        assert np.array_equal(got_m, moments) and np.array_equal(got, want)
+
+
+def _piece_window_numpy(sim, a, sel, a_sel, b_sel, wpiece_g, w_vertex, w_radius, nodes, seg_rad, reach):
+    """The numpy code of ``QuasiStaticSim._solve_window_at`` before (git 4d2c01e) that chose a solve's wall pieces."""
+    pieces = np.zeros(0, np.int64)
+    wpiece = np.full(len(sel), -1, np.int64)
+    wa, wb = a_sel, b_sel
+    if sim._piece_bodies and np.any(wpiece_g >= 0):
+        wa, wb = a_sel.copy(), b_sel.copy()
+        blo, bhi = sim._feature_boxes[0][sel], sim._feature_boxes[1][sel]
+        close = np.zeros(len(sel), np.bool_)
+        close[qk.select_features(nodes[a:], seg_rad, blo, bhi, reach)] = True
+        unknown = np.zeros(len(sim._piece_bodies) + 1, np.bool_)
+        unknown[wpiece_g[(wpiece_g >= 0) & close]] = True
+        if a > 0 and np.any(unknown):
+            held = qk.touching(nodes[: a + 1], sim.seg_rad[:a], blo, bhi, a_sel, b_sel, wpiece_g, w_vertex, w_radius, sim._pc0,
+                               sim._u_all, reach)
+            unknown[wpiece_g[(wpiece_g >= 0) & held]] = False
+        pieces = np.nonzero(unknown)[0]
+        moving = wpiece_g >= 0
+        if np.any(moving):
+            q = sim._u_all[wpiece_g[moving]]
+            c, sn = np.cos(q[:, 2]), np.sin(q[:, 2])
+            o = sim._pc0[wpiece_g[moving]] + q[:, :2]
+            for arr in (wa, wb):
+                loc = arr[moving].copy()
+                arr[moving, 0] = o[:, 0] + c * loc[:, 0] - sn * loc[:, 1]
+                arr[moving, 1] = o[:, 1] + sn * loc[:, 0] + c * loc[:, 1]
+        solved = unknown[wpiece_g]
+        wa[solved], wb[solved] = a_sel[solved], b_sel[solved]
+        local = np.full(len(sim._piece_bodies) + 1, -1, np.int64)
+        local[pieces] = np.arange(len(pieces))
+        wpiece = np.where(wpiece_g >= 0, local[np.maximum(wpiece_g, 0)], -1)
+        wpiece[wpiece_g < 0] = -1
+    return wa, wb, pieces, wpiece
+
+
+def test_the_solved_wall_pieces_are_those_the_numpy_code_chose():
+    """On a Colon-v0 episode (compliant wall pieces pushed by the robot, held joints behind the window),
+    at every window start of the body, with the pieces displaced as the solves left them."""
+    import gymnasium as gym
+
+    import evertgym  # noqa: F401  (registers the envs)
+
+    env = gym.make("evertgym/Colon-v0")
+    env.reset(seed=2)
+    sim = env.unwrapped.sim
+    rng = np.random.default_rng(7)
+    checked = moved = 0
+    for step in range(60):
+        env.step(rng.uniform(env.action_space.low, env.action_space.high).astype(np.float32))
+        if step % 10:
+            continue
+        nodes, _ = sim._all_nodes()
+        moved += int(np.any(sim._u_all != 0))
+        for a in range(0, len(sim.phi), 3):
+            seg_rad = sim.seg_rad[a:].copy()
+            reach = 0.001 + 0.003
+            sel = qk.select_features(nodes[a:], seg_rad, *sim._feature_boxes, 0.001 + 0.012)
+            w = sim._walls
+            a_sel, b_sel, wpiece_g, w_vertex, w_radius, _ = qk.gather_walls(sel, w.a, w.b, w.piece, w.vertex, w.radius, w.friction)
+            want = _piece_window_numpy(sim, a, sel, a_sel, b_sel, wpiece_g, w_vertex, w_radius, nodes, seg_rad, reach)
+            got = qk.piece_window(nodes[a:], seg_rad, nodes[: a + 1], sim.seg_rad[:a], a, *sim._feature_boxes, sel, a_sel, b_sel,
+                                  wpiece_g, w_vertex, w_radius, sim._pc0, sim._u_all, np.cos(sim._u_all[:, 2]),
+                                  np.sin(sim._u_all[:, 2]), reach)
+            for g, x in zip(got, want):
+                assert g.shape == x.shape and np.array_equal(g, x)
+            checked += len(want[2])
+    env.close()
+    assert checked > 0 and moved > 0  # the test saw solved pieces, and pieces the robot had displaced
