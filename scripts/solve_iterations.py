@@ -12,6 +12,7 @@ share of the run's wall time spent outside the compiled solve (the engine's and 
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 
 _BUCKETS = ((0, 1), (1, 8), (8, 13), (13, 20), (20, 40), (40, 80), (80, 10**9))
@@ -65,13 +66,23 @@ def measure(env_id: str, steps: int) -> dict:
             "compiled_share": float(t.sum() / wall), "buckets": rows}
 
 
-def main(argv: list[str] | None = None) -> None:
+def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--env", action="append", help="env id (repeatable; default UBend-v0 and Colon-v0)")
     ap.add_argument("--steps", type=int, default=0, help="random-action steps per env (default 300 for UBend-v0, 150 otherwise)")
     args = ap.parse_args(argv)
     if args.steps < 0:
-        ap.error(f"--steps = {args.steps} is out of range: allowed 1 or more (0: the default)")
+        print(f"--steps = {args.steps} is out of range: allowed 1 or more (0: the default)", file=sys.stderr)
+        return 2
+    import gymnasium as gym
+
+    import evertgym  # noqa: F401  (registers the envs)
+
+    for env_id in args.env or []:
+        if env_id not in gym.registry:
+            print(f"--env = {env_id!r} is not an env id: allowed one of {sorted(k for k in gym.registry if k.startswith('evertgym/'))}",
+                  file=sys.stderr)
+            return 2
     for env_id in args.env or ["evertgym/UBend-v0", "evertgym/Colon-v0"]:
         steps = args.steps or (300 if "UBend" in env_id else 150)
         r = measure(env_id, steps)
@@ -81,7 +92,8 @@ def main(argv: list[str] | None = None) -> None:
         print("  iterations   solves   share of the compiled time")
         for b in r["buckets"]:
             print(f"  {b['iterations']:>10s} {b['solves']:8d}   {100 * b['time_share']:5.1f}%")
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())
