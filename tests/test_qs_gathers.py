@@ -9,6 +9,7 @@ retrain exactly from their configs: these tests hold each helper to its numpy or
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from evertgym.model.pressure import KINK_MOMENT_FRACTION
 from evertgym.sim import qs_kernel as qk
@@ -145,3 +146,40 @@ def test_the_solved_wall_pieces_are_those_the_numpy_code_chose():
             checked += len(want[2])
     env.close()
     assert checked > 0 and moved > 0  # the test saw solved pieces, and pieces the robot had displaced
+
+
+def test_the_semiseparable_solve_is_the_dense_one_to_rounding():
+    """``H = diag(d) + a_i . p_j`` (i <= j, symmetric) from random generators, positive definite and
+    indefinite (the Levenberg shift then engages): the O(m) factorisation picks the same shift as the
+    dense Cholesky (to rounding) and the same step to 1e-9 of its size."""
+    rng = np.random.default_rng(8)
+    shifted = 0
+    for trial in range(200):
+        m = int(rng.integers(1, 90))
+        nodes = np.cumsum(rng.normal(scale=0.0075, size=(m, 2)), axis=0)
+        gen = np.empty((m, 7))
+        gen[:, 0] = rng.uniform(0.01, 1.0, m)
+        gen[:, 1] = 1.0
+        gen[:, 2:4] = nodes
+        # p_j from suffix sums of PSD 3 x 3 contact terms, minus a compressive part in some trials
+        w = np.stack([np.ones(m), -nodes[:, 0], nodes[:, 1]], axis=1)
+        s = np.zeros((m, 3, 3))
+        for k in rng.choice(m, size=min(m, 3), replace=False):
+            v = rng.normal(size=3)
+            s[k] += rng.uniform(0, 50) * np.outer(v, v)
+        s = np.cumsum(s[::-1], axis=0)[::-1]
+        cj = np.einsum("jrc,jc->jr", s, w)
+        c3 = -rng.uniform(0, 2.0, m) * (trial % 2)
+        vf = rng.normal(scale=0.1, size=(m, 2)) * (trial % 3 == 0)
+        gen[:, 4] = cj[:, 0] + c3
+        gen[:, 5] = vf[:, 0] - cj[:, 1]
+        gen[:, 6] = cj[:, 2] + vf[:, 1]
+        full = np.triu(gen[:, 1:4] @ gen[:, 4:7].T)
+        full = full + np.triu(full, 1).T + np.diag(gen[:, 0])
+        rhs = rng.normal(size=m)
+        x_dense, mu_dense = qk._cholesky_solve(full, rhs, 0.0)
+        x_semi, mu_semi = qk._semi_solve(gen, rhs, 0.0)
+        assert mu_semi == pytest.approx(mu_dense, rel=1e-12, abs=0.0)  # (the largest diagonal term, rounded otherwise)
+        assert np.max(np.abs(x_semi - x_dense)) <= 1e-9 * np.max(np.abs(x_dense))
+        shifted += mu_dense > 0
+    assert shifted > 10  # the ladder was exercised

@@ -79,8 +79,12 @@ class SimConfig:
         slides), ``friction_lag_iterations`` (re-solves with the normal forces updated),
         ``max_newton_iterations`` and ``pressure_increment_fraction`` (the pressure change, as a
         fraction of the last solve's pressure and at least of 1 kPa, after which the body is
-        re-solved while it touches a wall or is growing).  A field that means nothing to the chosen
-        engine is rejected.
+        re-solved while it touches a wall or is growing), ``linear_solver`` (how a Newton step's linear
+        system is solved where no compliant wall piece is an unknown: ``"dense"``, a Cholesky
+        factorisation of the joints' Hessian, O(m^3); or ``"semiseparable"``, the same system in
+        O(m), the Hessian being diagonal plus semiseparable of rank 3 in joint coordinates; the two
+        agree to rounding, not bit for bit).  A field that means nothing to the chosen engine is
+        rejected.
     Band-mechanism laws (quasi-static engine; :mod:`evertgym.sim.band_laws`, issue 26)
         ``band_fold``: an everted band folds axially (goes slack) when the tip's push and the tail's
         tension exceed ``p pi r_b^2``; growth then stops.  ``fold_pinch_per_rad``: the tail's losses
@@ -129,6 +133,7 @@ class SimConfig:
     friction_lag_iterations: int = 1
     max_newton_iterations: int = 60
     pressure_increment_fraction: float = 0.05
+    linear_solver: str = "dense"
     band_fold: bool = False
     fold_pinch_per_rad: float = 0.0
     band_eversion_threshold: bool = True
@@ -174,6 +179,9 @@ class SimConfig:
         _check("friction_lag_iterations", self.friction_lag_iterations, 0, 20)
         _check("max_newton_iterations", self.max_newton_iterations, 1, 10000)
         _check("pressure_increment_fraction", self.pressure_increment_fraction, 1e-6, 0.5)
+        if self.linear_solver not in LINEAR_SOLVERS:
+            raise ValueError(f"linear_solver = {self.linear_solver!r} is out of range: allowed "
+                             f"{' or '.join(repr(e) for e in LINEAR_SOLVERS)}")
         _check("fold_pinch_per_rad", self.fold_pinch_per_rad, 0.0, 10.0)
         _check("flattening", self.flattening, 0.0, 0.5, lo_open=False)
         for name in ("band_fold", "band_eversion_threshold"):
@@ -200,12 +208,14 @@ class SimConfig:
 
 #: The engines ``SimConfig.engine`` takes.
 ENGINES = ("quasistatic", "dynamic")
+#: The quasi-static engine's solvers of a Newton step's linear system (``SimConfig.linear_solver``).
+LINEAR_SOLVERS = ("dense", "semiseparable")
 #: Settings of the dynamic pymunk chain (masses, damping, solver passes, relaxation, active set).
 DYNAMIC_ONLY = ("damping", "inertia_factor", "mass_ratio", "iterations", "law_interval", "freeze_speed_m_per_s", "freeze_time_s",
                 "rest_speed_m_per_s", "rest_pressure_tol_pa", "force_window_s", "relax_speed_m_per_s", "relax_length_m",
                 "relax_force_n", "max_relax_steps", "dormant_walls", "wall_wake_margin_m", "tail_drag_fraction")
 #: Settings of the quasi-static engine.
 QUASISTATIC_ONLY = ("growth_increment_m", "solver_tolerance", "barrier_gap_m", "friction_slip_m", "friction_lag_iterations",
-                    "max_newton_iterations", "pressure_increment_fraction", "band_fold", "fold_pinch_per_rad",
+                    "max_newton_iterations", "pressure_increment_fraction", "linear_solver", "band_fold", "fold_pinch_per_rad",
                     "band_eversion_threshold", "flattening")
 _DEFAULTS = {f.name: f.default for f in fields(SimConfig)}

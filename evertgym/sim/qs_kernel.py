@@ -594,24 +594,34 @@ def joint_moments(phi, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual):
 @nb.njit(cache=True, nogil=True)
 def grad_hess(nodes, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
               wa, wb, wpiece, wvert, wrad, pc0, u, pairs, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0, fr_xw0,
-              dhat, kappa, eps_v, want_hess):
+              dhat, kappa, eps_v, want_hess, semi):
     """Gradient (n,) and Hessian of :func:`energy` at ``phi`` (its nodes ``nodes``) over
     ``z = [phi, u.ravel()]``, in blocks: joints ``hess`` (m, m), joints-pieces ``hjp`` (m, 3 npc) and
     each piece's own ``hpp`` (npc, 3, 3) (the pieces are independent springs: no piece-piece
     coupling); the Hessian drops the distance's own curvature (Gauss-Newton on the normal) but keeps
-    the chain's geometric stiffness under every contact and friction force."""
+    the chain's geometric stiffness under every contact and friction force.
+
+    The joints' block is diagonal plus semiseparable of rank 3: ``H_ij = d_j [i = j] + a_i . p_j`` for
+    ``i <= j`` (``a_i = (1, x_i, y_i)`` of node ``i``).  With ``semi`` (no wall pieces) that block is
+    returned as those generators, ``gen`` (m, 7) = ``[d, a, p]`` (:func:`_semi_solve`), instead of the dense
+    ``hess`` ((1, 1) then): returns ``(grad, hess, gen, hjp, hpp)``."""
     m = phi.shape[0]
     npc = u.shape[0]
     n = m + 3 * npc
     grad = np.zeros(n)
-    hess = np.zeros((m, m)) if want_hess else np.zeros((1, 1))
+    dense = want_hess and not semi
+    hess = np.zeros((m, m)) if dense else np.zeros((1, 1))
+    gen = np.zeros((m, 7)) if want_hess and semi else np.zeros((1, 7))
     hjp = np.zeros((m, 3 * npc)) if want_hess else np.zeros((1, 1))
     hpp = np.zeros((npc, 3, 3)) if want_hess else np.zeros((1, 3, 3))
     for j in range(m):
         _, mj, dmj = joint_law(phi[j], k_j[j], mw_j[j], law_u, law_h, law_hi, law_slope, residual)
         grad[j] += mj
         if want_hess:
-            hess[j, j] += dmj
+            if semi:
+                gen[j, 0] += dmj
+            if dense:
+                hess[j, j] += dmj
     smat = np.zeros((m, 3, 3))
     va = np.zeros(m)
     vf = np.zeros((m, 2))
@@ -649,7 +659,15 @@ def grad_hess(nodes, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law
             cj[j, 1] = smat[j, 1, 0] + smat[j, 1, 1] * wj1 + smat[j, 1, 2] * wj2
             cj[j, 2] = smat[j, 2, 0] + smat[j, 2, 1] * wj1 + smat[j, 2, 2] * wj2
             cj[j, 3] = gsum[j] + va[j]
-        for i in range(m):
+        if semi:
+            for j in range(m):
+                gen[j, 1] = 1.0
+                gen[j, 2] = nodes[j, 0]
+                gen[j, 3] = nodes[j, 1]
+                gen[j, 4] = cj[j, 0] + cj[j, 3]
+                gen[j, 5] = vf[j, 0] - cj[j, 1]
+                gen[j, 6] = cj[j, 2] + vf[j, 1]
+        for i in range(m if dense else 0):
             wi1 = -nodes[i, 0]
             wi2 = nodes[i, 1]
             ni0 = nodes[i, 0]
@@ -684,7 +702,7 @@ def grad_hess(nodes, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law
                     hpp[p, 0, 1] += k_travel[p] * ex * ey - f / r * ex * ey
                     hpp[p, 1, 0] += k_travel[p] * ex * ey - f / r * ex * ey
                     hpp[p, 1, 1] += k_travel[p] * ey * ey + f / r * (1 - ey * ey)
-    return grad, hess, hjp, hpp
+    return grad, hess, gen, hjp, hpp
 
 
 @nb.njit(cache=True, nogil=True)
@@ -734,6 +752,81 @@ def _substitute(low, rhs):
             t -= low[k, i] * x[k]
         x[i] = t / low[i, i]
     return x
+
+
+@nb.njit(cache=True, nogil=True)
+def _semi_factor(gen, mu, q, low):
+    """Cholesky factor of ``H + mu I`` for the joints' block ``H`` in generators (:func:`grad_hess`,
+    ``gen = [d, a, p]``): ``L_ij = p_i . q_j`` below the diagonal, ``L_jj = low[j]``, in O(m) (``q``
+    (m, 3) and ``low`` (m,) are written); whether it is positive definite.  From ``L L^T = H``:
+    ``low_j^2 = d_j + mu + a_j . p_j - p_j^T P_j p_j`` and ``q_j = (a_j - P_j p_j) / low_j`` with
+    ``P_j = sum_{k < j} q_k q_k^T``."""
+    m = gen.shape[0]
+    p00 = p01 = p02 = p11 = p12 = p22 = 0.0
+    for j in range(m):
+        a0, a1, a2 = gen[j, 1], gen[j, 2], gen[j, 3]
+        b0, b1, b2 = gen[j, 4], gen[j, 5], gen[j, 6]
+        c0 = p00 * b0 + p01 * b1 + p02 * b2
+        c1 = p01 * b0 + p11 * b1 + p12 * b2
+        c2 = p02 * b0 + p12 * b1 + p22 * b2
+        l2 = gen[j, 0] + mu + (a0 * b0 + a1 * b1 + a2 * b2) - (b0 * c0 + b1 * c1 + b2 * c2)
+        if not l2 > 0.0:
+            return False
+        lj = math.sqrt(l2)
+        low[j] = lj
+        q0 = (a0 - c0) / lj
+        q1 = (a1 - c1) / lj
+        q2 = (a2 - c2) / lj
+        q[j, 0] = q0
+        q[j, 1] = q1
+        q[j, 2] = q2
+        p00 += q0 * q0
+        p01 += q0 * q1
+        p02 += q0 * q2
+        p11 += q1 * q1
+        p12 += q1 * q2
+        p22 += q2 * q2
+    return True
+
+
+@nb.njit(cache=True, nogil=True)
+def _semi_diag_max(gen):
+    """Largest absolute diagonal term of the joints' block in generators."""
+    out = 0.0
+    for j in range(gen.shape[0]):
+        out = max(out, abs(gen[j, 0] + gen[j, 1] * gen[j, 4] + gen[j, 2] * gen[j, 5] + gen[j, 3] * gen[j, 6]))
+    return out
+
+
+@nb.njit(cache=True, nogil=True)
+def _semi_solve(gen, rhs, mu0):
+    """:func:`_cholesky_solve` for the joints' block in generators (:func:`grad_hess` with ``semi``):
+    the same Levenberg shifts, each factor :func:`_semi_factor` in O(m), and the two substitutions in
+    O(m) (``L_ik = p_i . q_k``: the sums over ``k`` are running sums of ``q_k y_k`` and ``p_k x_k``)."""
+    m = gen.shape[0]
+    diag_max = _semi_diag_max(gen)
+    q = np.empty((m, 3))
+    low = np.empty(m)
+    mu = mu0
+    for _ in range(40):
+        if _semi_factor(gen, mu, q, low):
+            y = np.empty(m)
+            s0 = s1 = s2 = 0.0
+            for i in range(m):
+                y[i] = (rhs[i] - (gen[i, 4] * s0 + gen[i, 5] * s1 + gen[i, 6] * s2)) / low[i]
+                s0 += q[i, 0] * y[i]
+                s1 += q[i, 1] * y[i]
+                s2 += q[i, 2] * y[i]
+            x = np.empty(m)
+            t0 = t1 = t2 = 0.0
+            for i in range(m - 1, -1, -1):
+                x[i] = (y[i] - (q[i, 0] * t0 + q[i, 1] * t1 + q[i, 2] * t2)) / low[i]
+                t0 += gen[i, 4] * x[i]
+                t1 += gen[i, 5] * x[i]
+                t2 += gen[i, 6] * x[i]
+            return x, mu
+        mu = max(1e-8 * diag_max, 1e-12) if mu == 0.0 else mu * 10.0
+    return np.zeros(m), -1.0
 
 
 @nb.njit(cache=True, nogil=True)
@@ -915,7 +1008,7 @@ def _near_pairs(nodes, pairs, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, reac
 @nb.njit(cache=True, nogil=True)
 def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
           wa, wb, wpiece, wvert, wrad, pc0, u, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0, fr_xw0,
-          dhat, kappa, eps_v, tol_m, tol_f, max_iter, max_move, rows0):
+          dhat, kappa, eps_v, tol_m, tol_f, max_iter, max_move, rows0, semi):
     """Newton's method on :func:`energy` from ``(phi, u)`` (updated in place); ``rows0`` the contact
     rows (:func:`pair_rows`) at the start, at least those within ``dhat + 2 max_move``; once anything
     has moved by ``max_move`` the rows are listed again from every wall (:func:`contacts`).
@@ -926,6 +1019,7 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
     m = phi.shape[0]
     npc = u.shape[0]
     n = m + 3 * npc
+    semi = semi and npc == 0  # (with compliant pieces the Schur complement is dense)
     rows = _rows_where(rows0, dhat + 2.0 * max_move)
     pairs = _rows_to_pairs(rows)
     anchor, _ = chain_nodes(theta0, n0, phi, seg_len)
@@ -947,9 +1041,9 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
     shift = 0.0  # the last Levenberg shift, warm start of the next (a tenth of it)
     damp = 0.0  # Levenberg-Marquardt damping: grows while steps are cut short, shrinks when they are taken whole
     for it in range(max_iter + 1):
-        grad, hess, hjp, hpp = grad_hess(nodes, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
+        grad, hess, gen, hjp, hpp = grad_hess(nodes, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
                                wa, wb, wpiece, wvert, wrad, pc0, u, near, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam,
-                               fr_xr0, fr_xw0, dhat, kappa, eps_v, True)
+                               fr_xr0, fr_xw0, dhat, kappa, eps_v, True, semi)
         res_m = 0.0
         for j in range(m):
             res_m = max(res_m, abs(grad[j]))
@@ -961,7 +1055,10 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
             return CONVERGED, it, res_m, res_f
         if it == max_iter:
             break
-        step, shift = _schur_solve(hess, hjp, hpp, -grad, m, npc, max(0.1 * shift, damp))
+        if semi:
+            step, shift = _semi_solve(gen, -grad, max(0.1 * shift, damp))
+        else:
+            step, shift = _schur_solve(hess, hjp, hpp, -grad, m, npc, max(0.1 * shift, damp))
         if shift < 0:
             return LINE_SEARCH_FAILED, it, res_m, res_f
         # limit the step: no joint turns by more than 0.5 rad, no node moves more than max_move
@@ -1012,7 +1109,7 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
         # an indefinite model (a kink's plateau under compression) gives long steps that the line search
         # cuts: damp the next step instead (a trust region in Levenberg-Marquardt's form)
         if alpha < 0.1 * scale:
-            damp = max(10.0 * max(damp, shift), 1e-6 * _diag_max(hess, hpp))
+            damp = max(10.0 * max(damp, shift), 1e-6 * (_semi_diag_max(gen) if semi else _diag_max(hess, hpp)))
         elif alpha >= 0.5 * scale:
             damp *= 0.1
         phi[:] = trial_phi
@@ -1136,7 +1233,7 @@ def _same_entries(a_s, a_w, a_ml, b_s, b_w, b_ml, tol_f):
 @nb.njit(cache=True, nogil=True)
 def solve_increment(theta0, n0, phi, phi_ref, seg_len, seg_rad, s_nodes, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
                     wa, wb, wpiece, wvert, wrad, wall_mu, robot_mu, pc0, u, kaa, fh, travel, k_travel,
-                    e_s, e_w, e_wl, e_t, e_ml, dhat, kappa, eps_v, tol_m, tol_f, max_iter, max_move, lag_iterations):
+                    e_s, e_w, e_wl, e_t, e_ml, dhat, kappa, eps_v, tol_m, tol_f, max_iter, max_move, lag_iterations, semi):
     """One equilibrium of the window with lagged friction (:func:`solve`, then the normal forces
     and tangents updated from the solution and the solve repeated, at most ``lag_iterations``
     times, until they stop changing).  Friction resists slip from the configuration before the
@@ -1160,7 +1257,7 @@ def solve_increment(theta0, n0, phi, phi_ref, seg_len, seg_rad, s_nodes, k_j, mw
         fr_k, fr_s, fr_xr0, fr_xw0 = _friction_inputs(e_s, e_w, e_wl, start_nodes, s_nodes, seg_len, wpiece, pc0, u0)
         status, it, res_m, res_f = solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
                                          wa, wb, wpiece, wvert, wrad, pc0, u, kaa, fh, travel, k_travel, fr_k, fr_s, e_w, e_wl, e_t,
-                                         e_ml, fr_xr0, fr_xw0, dhat, kappa, eps_v, tol_m, tol_f, max_iter, max_move, wide)
+                                         e_ml, fr_xr0, fr_xw0, dhat, kappa, eps_v, tol_m, tol_f, max_iter, max_move, wide, semi)
         iters += it
         if status == INFEASIBLE_START:
             break

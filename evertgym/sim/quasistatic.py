@@ -899,7 +899,8 @@ class QuasiStaticSim(GrowingTube):
                 theta0, n0, phi, phi_ref, seg_len, seg_rad, s_nodes, k_j, mw_j, *_LAW[:3], _LAW[3], RESIDUAL_STIFFNESS_FRACTION,
                 wa, wb, wpiece, w_vertex, w_radius, w_friction, robot_mu, pc0, u, kaa, fh,
                 travel, k_travel, f_s, f_w, f_wl, f_t, f_ml, cfg.barrier_gap_m, self._kappa, cfg.friction_slip_m, tol_m,
-                tol_f, budget, _MAX_MOVE_M, cfg.friction_lag_iterations)
+                tol_f, budget, _MAX_MOVE_M, cfg.friction_lag_iterations,
+                cfg.linear_solver == "semiseparable")
             iters += it
             if status in (qk.CONVERGED, qk.INFEASIBLE_START) or self._retry_ok:
                 break  # (a growth increment that can still be halved is retried shorter by the caller)
