@@ -55,3 +55,30 @@ def test_solves_are_grouped_by_their_iterations():
     assert r["solves"] == sum(b["solves"] for b in r["buckets"]) > 0
     assert abs(sum(b["time_share"] for b in r["buckets"]) - 1.0) < 1e-9
     assert 0.0 < r["compiled_share"] < 1.0
+
+
+def _store(path, results: dict[int, dict], group: str = "g") -> None:
+    from evertgym.scoring.spec import TrialSpec
+    from evertgym.scoring.store import ResultStore
+
+    with ResultStore(path) as store:
+        for seed, res in results.items():
+            store.add(TrialSpec(design={}, design_name="d", scene={"family": "ubend", "params": {}, "seed": seed},
+                                policy={"name": group}, seed=seed, index=seed, group=group), res)
+
+
+def test_two_stores_are_compared_trial_by_trial(tmp_path, capsys):
+    compare = _load("compare_stores")
+    base = {"time_s": 5.0, "peak_pressure_kpa": 3.0, "max_contact_force_n": 1.0, "stall_position_mm": None}
+    _store(tmp_path / "a.sqlite", {1: {**base, "success": True}, 2: {**base, "success": True}, 3: {**base, "success": False}}, "rule")
+    _store(tmp_path / "b.sqlite", {1: {**base, "success": True}, 2: {**base, "success": False, "time_s": 30.0},
+                                   4: {**base, "success": True}}, "other")
+    r = compare.compare(compare.load(str(tmp_path / "a.sqlite"), None), compare.load(str(tmp_path / "b.sqlite"), "other"))
+    assert r["pairs"] == 1 + 1 and r["only_a"] == 1 and r["only_b"] == 1  # seeds 1 and 2 pair across the two groups
+    assert r["success_differs"] == [["d", "", 2]]
+    assert r["fields"]["time_s"] == {"pairs_differing": 1, "median": 12.5, "max": 25.0, "mean_a": 5.0, "mean_b": 17.5}
+    assert compare.main([str(tmp_path / "a.sqlite"), str(tmp_path / "b.sqlite"), "--group-a", "nope"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "holds no trials of group 'nope'" in err[0]
+    assert compare.main([str(tmp_path / "missing.sqlite"), str(tmp_path / "b.sqlite")]) == 2
+    assert "is not a file" in capsys.readouterr().err
