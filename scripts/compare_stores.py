@@ -1,10 +1,11 @@
 """Two result stores trial by trial: which outcomes differ, and by how much each recorded number moved.
 
 Pairs the trials of two SQLite result stores (``--db`` of ``reproduce``, ``score`` or ``eval``) by their design,
-group (unless a store's trials are of one group) and seed (``--group-a`` / ``--group-b`` pick one group of a store that holds several, e.g. one policy of an
-``eval`` store), and prints how many pairs differ in success, and per number of the trial record (time to the goal,
-peak pressure, largest contact force) how many pairs differ, the median and the largest difference.  For checking
-that a setting, a solver or a build changes no answer (docs/quasistatic.md):
+group (unless a store's trials are of one group) and seed (``--group-a`` / ``--group-b`` pick one group of a store
+that holds several, e.g. one policy of an ``eval`` store), and prints how many pairs differ in success, and per
+number of the trial record (time to the goal, peak pressure, largest contact force) how many pairs differ, the median
+and the largest difference and the two means.  For checking that a setting, a solver or a build changes no answer
+(docs/quasistatic.md):
 
     python scripts/compare_stores.py runs/dense.sqlite runs/semi.sqlite
     python scripts/compare_stores.py runs/v1/tort_v1.sqlite semi_wave.sqlite --group-a 'cycle:low_kpa=2,high_kpa=8,period_s=2'
