@@ -11,6 +11,8 @@ start from an empty ``--out`` after a change to the physics.
     python scripts/invariance.py                                   # full size: 30+ min on 2 cores
     python scripts/invariance.py --trials 1 --episodes 2 --radii 40,20 --out runs/invariance_tiny
     python scripts/invariance.py --engine quasistatic --out runs/invariance_qs   # issue 25: its own settings and criteria
+    python scripts/invariance.py --engine quasistatic --sim '{"linear_solver": "semiseparable"}' --out runs/invariance_semi
+                                                   # the same, every setting on top of these SimConfig fields
 """
 
 from __future__ import annotations
@@ -34,6 +36,7 @@ from evertgym.experiments.invariance import (  # noqa: E402
     ubend_table,
 )
 from evertgym.experiments.paper import UBEND_RADII_MM  # noqa: E402
+from evertgym.sim import SimConfig  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> dict:
@@ -49,6 +52,8 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--json", action="store_true", help="print the result as JSON instead of tables")
     ap.add_argument("--engine", choices=["dynamic", "quasistatic"], default="dynamic",
                     help="the engine whose numerical settings are varied (its own settings and criteria)")
+    ap.add_argument("--sim", default="", help="SimConfig fields as JSON under every setting, the reference included "
+                    "(e.g. '{\"linear_solver\": \"semiseparable\"}')")
     args = ap.parse_args(argv)
     all_settings, criteria = (QUASISTATIC_SETTINGS, QUASISTATIC_CRITERIA) if args.engine == "quasistatic" else (SETTINGS, CRITERIA)
     radii = tuple(float(r) for r in args.radii.split(",") if r)
@@ -57,6 +62,16 @@ def main(argv: list[str] | None = None) -> dict:
     if unknown:
         ap.error(f"unknown settings {sorted(unknown)}: allowed {[n for n, _ in all_settings]}")
     settings = tuple(s for i, s in enumerate(all_settings) if i == 0 or not wanted or s[0] in wanted)
+    if args.sim:
+        try:
+            base = json.loads(args.sim)
+            if not isinstance(base, dict):
+                raise ValueError("not a JSON object")
+            settings = tuple((name, {**base, **sim}) for name, sim in settings)
+            for _, sim in settings:
+                SimConfig(**sim)
+        except (ValueError, TypeError) as e:
+            ap.exit(2, f"--sim = {args.sim!r} is not allowed: {e}\n")
     t0 = time.perf_counter()
     result = run_invariance(args.out, trials=args.trials, episodes=args.episodes, radii=radii, settings=settings,
                             workers=args.workers, progress=args.progress, criteria=criteria)

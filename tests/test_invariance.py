@@ -167,3 +167,19 @@ def test_quasistatic_invariance(tmp_path):
         assert row["colon_same"], table
         assert abs(row["operator_change"]) <= QUASISTATIC_CRITERIA["operator_max_change"] + 1e-9, table
         assert row["operator_episodes"] == 50, table
+
+
+def test_the_script_puts_sim_fields_under_every_setting_and_refuses_bad_ones_in_one_line(capsys):
+    import importlib.util
+    from pathlib import Path
+
+    spec = importlib.util.spec_from_file_location("invariance_script", Path(__file__).parents[1] / "scripts" / "invariance.py")
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    for sim, says in (('{"linear_solver": "lu"}', "linear_solver = 'lu' is out of range"), ("[1]", "not a JSON object"),
+                      ('{"bogus": 1}', "bogus")):
+        with pytest.raises(SystemExit) as e:
+            script.main(["--engine", "quasistatic", "--sim", sim])
+        assert e.value.code == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and err[0].startswith(f"--sim = {sim!r} is not allowed") and says in err[0]
