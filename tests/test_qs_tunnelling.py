@@ -21,10 +21,11 @@ WALL_A = np.array([[WALL_X0_M, WALL_Y_M]])
 WALL_B = np.array([[0.080, WALL_Y_M]])
 
 
-def _swing_back(start_rad: float) -> tuple[np.ndarray, np.ndarray, tuple]:
+def _swing_back(start_rad: float, semi: bool = False) -> tuple[np.ndarray, np.ndarray, tuple]:
     """Ten segments from the origin, turned up by ``start_rad`` at the base joint and released: the
     joints' equilibrium is the straight chain along x, which the wall (y = 3 mm, x = 50-80 mm) is
-    in the way of.  Returns the nodes before and after one solve, and the kernel's status."""
+    in the way of.  Returns the nodes before and after one solve, and the kernel's status; ``semi``:
+    the O(m) linear solver (``SimConfig.linear_solver = "semiseparable"``)."""
     m = 10
     phi = np.zeros(m)
     phi[0] = start_rad
@@ -38,7 +39,7 @@ def _swing_back(start_rad: float) -> tuple[np.ndarray, np.ndarray, tuple]:
         *_LAW[:3], _LAW[3], RESIDUAL_STIFFNESS_FRACTION,
         WALL_A, WALL_B, np.full(1, -1, np.int64), np.zeros(1, np.bool_), np.zeros(1), np.zeros(1), np.zeros(m), z2, np.zeros((0, 3)),
         np.zeros((0, 3, 3)), z0, z0, z0, z0, np.zeros(0, np.int64), z2, z2, z0,
-        1e-3, 0.1 * 8000.0 * math.pi * 0.02**2 / 1e-3, 1e-5, 1e-7, 1e-7, 200, 0.002, 1)
+        1e-3, 0.1 * 8000.0 * math.pi * 0.02**2 / 1e-3, 1e-5, 1e-7, 1e-7, 200, 0.002, 1, semi)
     after, _ = qk.chain_nodes(0.0, n0, phi, seg_len)
     return before, after, out
 
@@ -55,8 +56,9 @@ def _gaps(nodes: np.ndarray) -> np.ndarray:
     return np.array(out)
 
 
-def test_a_body_released_far_from_a_wall_stops_on_it_instead_of_passing_through():
-    before, after, out = _swing_back(0.4)
+@pytest.mark.parametrize("semi", [False, True])
+def test_a_body_released_far_from_a_wall_stops_on_it_instead_of_passing_through(semi):
+    before, after, out = _swing_back(0.4, semi)
     assert _gaps(before).min() > 0.008  # the wall is far beyond the solve's first candidates (6 mm)
     assert out[0] == qk.CONVERGED
     gaps = _gaps(after)
@@ -65,12 +67,13 @@ def test_a_body_released_far_from_a_wall_stops_on_it_instead_of_passing_through(
     assert after[-1, 1] > WALL_Y_M + RAD_M - 1e-3  # the tip stays above the wall
 
 
+@pytest.mark.parametrize("semi", [False, True])
 @pytest.mark.parametrize("start_rad", [0.2, 0.3])
-def test_where_it_rests_does_not_depend_on_how_far_from_the_wall_it_started(start_rad):
+def test_where_it_rests_does_not_depend_on_how_far_from_the_wall_it_started(start_rad, semi):
     """Released nearer the wall (at 0.2 rad the wall is among the first candidates), it comes to
     rest where it does when released far from it."""
-    _, after, out = _swing_back(start_rad)
-    _, ref, _ = _swing_back(0.4)
+    _, after, out = _swing_back(start_rad, semi)
+    _, ref, _ = _swing_back(0.4, semi)
     assert out[0] == qk.CONVERGED
     assert _gaps(after).min() > 0.0
     assert np.max(np.abs(after - ref)) < 1e-4
