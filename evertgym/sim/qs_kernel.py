@@ -714,6 +714,13 @@ def _try_cholesky(a):
 
 
 @nb.njit(cache=True, nogil=True)
+def _next_shift(mu, diag_max):
+    """The Levenberg shift tried after ``mu`` failed: 1e-8 of the largest diagonal term (at least
+    1e-12) after zero, else ten times ``mu``."""
+    return max(1e-8 * diag_max, 1e-12) if mu == 0.0 else mu * 10.0
+
+
+@nb.njit(cache=True, nogil=True)
 def _cholesky_solve(hess, rhs, mu0=0.0):
     """Solve ``(H + mu I) x = rhs`` with the smallest shift ``mu`` (0, then growing tenfold from
     1e-8 of the largest diagonal term) that makes the matrix positive definite (a Levenberg
@@ -731,7 +738,7 @@ def _cholesky_solve(hess, rhs, mu0=0.0):
         low, ok = _try_cholesky(a)
         if ok:
             return _substitute(low, rhs), mu
-        mu = max(1e-8 * diag_max, 1e-12) if mu == 0.0 else mu * 10.0
+        mu = _next_shift(mu, diag_max)
     return np.zeros(n), -1.0
 
 
@@ -825,7 +832,7 @@ def _semi_solve(gen, rhs, mu0):
                 t1 += gen[i, 5] * x[i]
                 t2 += gen[i, 6] * x[i]
             return x, mu
-        mu = max(1e-8 * diag_max, 1e-12) if mu == 0.0 else mu * 10.0
+        mu = _next_shift(mu, diag_max)
     return np.zeros(m), -1.0
 
 
@@ -940,7 +947,7 @@ def _schur_solve(hess, hjp, hpp, rhs, m, npc, mu0):
                     for i in range(3):
                         x[o + i] = dinv[p, i, 0] * v[0] + dinv[p, i, 1] * v[1] + dinv[p, i, 2] * v[2]
                 return x, mu
-        mu = max(1e-8 * diag_max, 1e-12) if mu == 0.0 else mu * 10.0
+        mu = _next_shift(mu, diag_max)
     return np.zeros(n), -1.0
 
 
@@ -1171,17 +1178,20 @@ def _friction_inputs(e_s, e_w, e_wl, start_nodes, s_nodes, seg_len, wpiece, pc0,
 
 
 @nb.njit(cache=True, nogil=True)
+def _empty_entries(n):
+    """``n`` lagged friction entries, unset: material coordinate, wall feature, wall-frame point,
+    tangent, ``mu lambda``."""
+    return np.empty(n), np.empty(n, np.int64), np.empty((n, 2)), np.empty((n, 2)), np.empty(n)
+
+
+@nb.njit(cache=True, nogil=True)
 def _entries(rows, s_nodes, seg_len, robot_mu, wall_mu, wpiece, pc0, u, dhat, kappa):
     """Lagged friction entries of the contacts ``rows``: material coordinate (-1: the cap), wall
     feature, wall-frame point, tangent and ``mu lambda`` (the barrier's normal force times the
     product of the robot's and the wall's coefficients, as pymunk combines them)."""
     nr = rows.shape[0]
     m = seg_len.shape[0]
-    e_s = np.empty(nr)
-    e_w = np.empty(nr, np.int64)
-    e_wl = np.empty((nr, 2))
-    e_t = np.empty((nr, 2))
-    e_ml = np.empty(nr)
+    e_s, e_w, e_wl, e_t, e_ml = _empty_entries(nr)
     cnt = 0
     for i in range(nr):
         k = int(rows[i, 0])
@@ -1450,7 +1460,7 @@ def window_friction(e_s, e_wall, e_wl, e_t, e_ml, sel, ds, n, a):
         if s < 0.0:
             j = n - 1
         else:
-            j = min(np.int64(math.floor(max(s, 0.0) / ds + 1e-9)), n - 1)
+            j = min(np.int64(math.floor(s / ds + 1e-9)), n - 1)
         in_window[i] = j >= a
         pos[i] = -1
         if in_window[i]:
@@ -1458,11 +1468,7 @@ def window_friction(e_s, e_wall, e_wl, e_t, e_ml, sel, ds, n, a):
             if q < sel.shape[0] and sel[q] == e_wall[i]:
                 pos[i] = q
                 cnt += 1
-    o_s = np.empty(cnt)
-    o_w = np.empty(cnt, np.int64)
-    o_wl = np.empty((cnt, 2))
-    o_t = np.empty((cnt, 2))
-    o_ml = np.empty(cnt)
+    o_s, o_w, o_wl, o_t, o_ml = _empty_entries(cnt)
     c = 0
     for i in range(ne):
         if pos[i] >= 0:
