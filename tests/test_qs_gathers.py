@@ -183,3 +183,70 @@ def test_the_semiseparable_solve_is_the_dense_one_to_rounding():
         assert np.max(np.abs(x_semi - x_dense)) <= 1e-9 * np.max(np.abs(x_dense))
         shifted += mu_dense > 0
     assert shifted > 10  # the ladder was exercised
+
+
+def _random_generators(rng: np.random.Generator, m: int, compress: bool) -> np.ndarray:
+    """Generators ``[d, a, p]`` of a joints' block (as :func:`test_the_semiseparable_solve_is_the_dense_one_to_rounding`)."""
+    nodes = np.cumsum(rng.normal(scale=0.0075, size=(m, 2)), axis=0)
+    gen = np.empty((m, 7))
+    gen[:, 0] = rng.uniform(0.01, 1.0, m)
+    gen[:, 1] = 1.0
+    gen[:, 2:4] = nodes
+    w = np.stack([np.ones(m), -nodes[:, 0], nodes[:, 1]], axis=1)
+    s = np.zeros((m, 3, 3))
+    for k in rng.choice(m, size=min(m, 3), replace=False):
+        v = rng.normal(size=3)
+        s[k] += rng.uniform(0, 50) * np.outer(v, v)
+    s = np.cumsum(s[::-1], axis=0)[::-1]
+    cj = np.einsum("jrc,jc->jr", s, w)
+    c3 = -rng.uniform(0, 2.0, m) * compress
+    gen[:, 4] = cj[:, 0] + c3
+    gen[:, 5] = -cj[:, 1]
+    gen[:, 6] = cj[:, 2]
+    return gen
+
+
+def test_the_semiseparable_solve_with_wall_pieces_is_the_dense_schur_solve_to_rounding():
+    """Wall pieces coupled to the joints through contact records (:func:`qk._record`) on one segment,
+    two adjacent ones (eliminated into the generators) and three or more (kept as unknowns): the
+    O(m) solve picks the dense Schur solve's shift and its step to 1e-8 of its size, definite and
+    indefinite (the shift engages), with uncoupled pieces beside them."""
+    rng = np.random.default_rng(11)
+    shifted = kept = 0
+    for trial in range(300):
+        m = int(rng.integers(2, 70))
+        npc = int(rng.integers(1, 12))
+        gen = _random_generators(rng, m, compress=trial % 2 == 1)
+        hess = np.triu(gen[:, 1:4] @ gen[:, 4:7].T)
+        hess = hess + np.triu(hess, 1).T + np.diag(gen[:, 0])
+        hpp = np.empty((npc, 3, 3))
+        for p in range(npc):
+            v = rng.normal(size=(3, 3))
+            hpp[p] = v @ v.T + rng.uniform(0.01, 5.0) * np.eye(3) - (trial % 4 == 3) * rng.uniform(0, 3.0) * np.eye(3)
+        recs = []
+        for p in range(npc):
+            span = int(rng.choice([0, 1, 1, 2, 3, 5]))  # 0: uncoupled; 1: one segment; 2: two adjacent; more: kept
+            if span == 0:
+                continue
+            k0 = int(rng.integers(0, max(1, m - span + 1)))
+            for _ in range(int(rng.integers(1, 4))):
+                k = min(m - 1, k0 + int(rng.integers(0, span)))
+                c = rng.normal(size=3) * rng.uniform(0.1, 10.0)
+                g = rng.normal(size=3)
+                recs.append([p, k, *c, *g])
+                # the hpp term of that contact, so that the whole Hessian is a sum of contact terms
+                hpp[p] += 0.1 * np.outer(g, g)
+            kept += span >= 3
+        rec = np.array(recs, dtype=float).reshape(-1, 8)
+        hjp = np.zeros((m, 3 * npc))
+        a = np.stack([np.ones(m), gen[:, 2], gen[:, 3]], axis=1)
+        for r in rec:
+            p, k = int(r[0]), int(r[1])
+            hjp[: k + 1, 3 * p : 3 * p + 3] += np.outer(a[: k + 1] @ r[2:5], r[5:8])
+        rhs = rng.normal(size=m + 3 * npc)
+        x_dense, mu_dense = qk._schur_solve(hess, hjp, hpp, rhs, m, npc, 0.0)
+        x_semi, mu_semi = qk._semi_schur_solve(gen, rec, hpp, rhs, m, npc, 0.0)
+        assert mu_semi == pytest.approx(mu_dense, rel=1e-12, abs=0.0)
+        assert np.max(np.abs(x_semi - x_dense)) <= 1e-8 * np.max(np.abs(x_dense))
+        shifted += mu_dense > 0
+    assert shifted > 20 and kept > 20  # the ladder and the kept pieces were exercised

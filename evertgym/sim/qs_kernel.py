@@ -419,12 +419,30 @@ def _add_point_force(k, px, py, fx, fy, acc_f, acc_m, acc_fx):
 
 
 @nb.njit(cache=True, nogil=True)
-def _rank1(hjp, hpp, smat, k, px, py, nodes, dirx, diry, piece, pc_x, pc_y, wx, wy, coef):
+def _record(rec, nrec, piece, k, a0, a1, a2, g0, g1, g2):
+    """Append a coupling of wall piece ``piece`` to the joints ``j <= k``: the joints-pieces block
+    gains ``(a_j . c) g^T`` in the piece's three columns, ``a_j = (1, x_j, y_j)`` node ``j``'s
+    generator (:func:`grad_hess`); a row of ``rec`` is ``[piece, k, c, g]``, ``nrec[0]`` the rows used."""
+    r = nrec[0]
+    rec[r, 0] = piece
+    rec[r, 1] = k
+    rec[r, 2] = a0
+    rec[r, 3] = a1
+    rec[r, 4] = a2
+    rec[r, 5] = g0
+    rec[r, 6] = g1
+    rec[r, 7] = g2
+    nrec[0] = r + 1
+
+
+@nb.njit(cache=True, nogil=True)
+def _rank1(hjp, hpp, smat, k, px, py, nodes, dirx, diry, piece, pc_x, pc_y, wx, wy, coef, rec, nrec):
     """Add ``coef g g^T`` for the gradient ``g`` of ``dir . (p - q)``.  Its robot part,
     ``g_j = (p - n_j) x dir = v . w_j`` for the joints ``j <= k`` with ``v = (p x dir, dir_y, dir_x)``
     and ``w_j = (1, -n_jx, n_jy)``, goes into the 3 x 3 sums ``smat[k]`` (summed from the tip and
     expanded by :func:`grad_hess` in O(m^2)); a wall piece's part (``-dir``, ``-(q - c) x dir``) goes
-    into its block ``hpp`` and its coupling to the joints into ``hjp`` directly."""
+    into its block ``hpp`` and its coupling to the joints into ``hjp`` directly, or, if ``rec`` has
+    rows, as one record (:func:`_record`)."""
     v0 = px * diry - py * dirx
     v1 = diry
     v2 = dirx
@@ -443,12 +461,15 @@ def _rank1(hjp, hpp, smat, k, px, py, nodes, dirx, diry, piece, pc_x, pc_y, wx, 
     gp1 = -diry
     gp2 = -((wx - pc_x) * diry - (wy - pc_y) * dirx)
     o = 3 * piece
-    for j in range(k + 1):
-        gj = v0 - nodes[j, 0] * v1 + nodes[j, 1] * v2
-        c = coef * gj
-        hjp[j, o] += c * gp0
-        hjp[j, o + 1] += c * gp1
-        hjp[j, o + 2] += c * gp2
+    if rec.shape[0] > 0:
+        _record(rec, nrec, piece, k, coef * v0, -coef * v1, coef * v2, gp0, gp1, gp2)
+    else:
+        for j in range(k + 1):
+            gj = v0 - nodes[j, 0] * v1 + nodes[j, 1] * v2
+            c = coef * gj
+            hjp[j, o] += c * gp0
+            hjp[j, o + 1] += c * gp1
+            hjp[j, o + 2] += c * gp2
     d = hpp[piece]
     d[0, 0] += coef * gp0 * gp0
     d[0, 1] += coef * gp0 * gp1
@@ -485,11 +506,11 @@ def _apply_force(m, k, s, px, py, qx, qy, fx, fy, p, pc0, u, ex, ey, acc_f, acc_
 
 @nb.njit(cache=True, nogil=True)
 def _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, pairs, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0, fr_xw0,
-                   dhat, kappa, eps_v, grad, hjp, hpp, smat, va, vf, want_hess):
+                   dhat, kappa, eps_v, grad, hjp, hpp, smat, va, vf, want_hess, rec, nrec):
     """Barrier and lagged-friction forces of the window: per segment the sums of the force on the
     robot ``f`` (N), of ``p x f`` (N m) and of ``f . p`` (N m); the wall pieces' generalised forces
     go into ``grad[m:]``, the rank-one Hessian terms into ``smat``, ``hjp`` and ``hpp`` (if ``want_hess``; see
-    :func:`grad_hess`).  Also the
+    :func:`grad_hess`; the joints-pieces couplings as records into ``rec`` instead if it has rows).  Also the
     wall's reaction against growth ``-sum s f . e_tip`` over the tip segment (N) and the total force
     on the tip segment (N)."""
     acc_f = np.zeros((m, 2))
@@ -513,7 +534,7 @@ def _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0,
         p = wpiece[w]
         ccx, ccy = _apply_force(m, k, s, px, py, qx, qy, fmag * nx, fmag * ny, p, pc0, u, ex, ey, acc_f, acc_m, acc_fx, tip, grad)
         if want_hess:
-            _rank1(hjp, hpp, smat, k, px, py, nodes, nx, ny, p, ccx, ccy, qx, qy, kappa * b2)
+            _rank1(hjp, hpp, smat, k, px, py, nodes, nx, ny, p, ccx, ccy, qx, qy, kappa * b2, rec, nrec)
             if wvert[w] and 0.0 < s < 1.0:
                 # a wall vertex against the segment's side: the distance to a line that turns with the
                 # joints, d2D/dphi_i dphi_j = n . (p - n_min(i,j)) - D, replaces the material point's
@@ -529,13 +550,16 @@ def _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0,
                     hx = -ny * fmag
                     hy = nx * fmag
                     hr = fmag * (nx * (qx - ccx) + ny * (qy - ccy))
-                    for j in range(k + 1):
-                        hjp[j, o] += hx
-                        hjp[j, o + 1] += hy
-                        hjp[j, o + 2] += hr
+                    if rec.shape[0] > 0:
+                        _record(rec, nrec, p, k, 1.0, 0.0, 0.0, hx, hy, hr)
+                    else:
+                        for j in range(k + 1):
+                            hjp[j, o] += hx
+                            hjp[j, o + 1] += hy
+                            hjp[j, o + 2] += hr
                     hpp[p, 2, 2] -= hr
             elif _point_point(s, qx, qy, cx, cy, dx, dy, wvert[w]):  # the normal turns as p moves across
-                _rank1(hjp, hpp, smat, k, px, py, nodes, -ny, nx, p, ccx, ccy, qx, qy, kappa * b1 / dist)
+                _rank1(hjp, hpp, smat, k, px, py, nodes, -ny, nx, p, ccx, ccy, qx, qy, kappa * b1 / dist, rec, nrec)
             elif p >= 0:
                 # a robot node against the side of a piece's segment: the line turns with the piece,
                 # D = R(theta) n0 . (x - c - u)
@@ -545,8 +569,11 @@ def _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0,
                 d[1, 2] += fmag * nx
                 d[2, 1] += fmag * nx
                 d[2, 2] += fmag * (nx * (px - ccx) + ny * (py - ccy))
-                for j in range(k + 1):
-                    hjp[j, 3 * p + 2] += -fmag * (nx * (px - nodes[j, 0]) + ny * (py - nodes[j, 1]))
+                if rec.shape[0] > 0:
+                    _record(rec, nrec, p, k, -fmag * (nx * px + ny * py), fmag * nx, fmag * ny, 0.0, 0.0, 1.0)
+                else:
+                    for j in range(k + 1):
+                        hjp[j, 3 * p + 2] += -fmag * (nx * (px - nodes[j, 0]) + ny * (py - nodes[j, 1]))
     for c in range(fr_k.shape[0]):
         k, s, xr, yr, xw, yw, ut = _slip(c, nodes, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_xr0, fr_xw0, wpiece, pose)
         w = fr_w[c]
@@ -557,7 +584,7 @@ def _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0,
         p = wpiece[w]
         ccx, ccy = _apply_force(m, k, s, xr, yr, xw, yw, ff * tx, ff * ty, p, pc0, u, ex, ey, acc_f, acc_m, acc_fx, tip, grad)
         if want_hess:
-            _rank1(hjp, hpp, smat, k, xr, yr, nodes, tx, ty, p, ccx, ccy, xw, yw, fr_mulam[c] * df1)
+            _rank1(hjp, hpp, smat, k, xr, yr, nodes, tx, ty, p, ccx, ccy, xw, yw, fr_mulam[c] * df1, rec, nrec)
     return acc_f, acc_m, acc_fx, tip
 
 
@@ -574,7 +601,8 @@ def segment_forces(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wra
     pairs = _rows_to_pairs(_rows_where(wide, dhat))
     acc_f, acc_m, _, tip = _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, pairs, fr_k, fr_s, fr_w, fr_wl, fr_t,
                                           fr_mulam, fr_xr0, fr_xw0, dhat, kappa, eps_v, grad, np.zeros((1, 1)), np.zeros((1, 3, 3)),
-                                          np.zeros((m, 3, 3)), np.zeros(m), np.zeros((m, 2)), False)
+                                          np.zeros((m, 3, 3)), np.zeros(m), np.zeros((m, 2)), False, np.zeros((0, 8)),
+                                          np.zeros(1, np.int64))
     # the tip segment's clearance among the candidates (inf if none)
     for i in range(wide.shape[0]):
         if int(wide[i, 0]) == m - 1:
@@ -602,9 +630,11 @@ def grad_hess(nodes, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law
     the chain's geometric stiffness under every contact and friction force.
 
     The joints' block is diagonal plus semiseparable of rank 3: ``H_ij = d_j [i = j] + a_i . p_j`` for
-    ``i <= j`` (``a_i = (1, x_i, y_i)`` of node ``i``).  With ``semi`` (no wall pieces) that block is
-    returned as those generators, ``gen`` (m, 7) = ``[d, a, p]`` (:func:`_semi_solve`), instead of the dense
-    ``hess`` ((1, 1) then): returns ``(grad, hess, gen, hjp, hpp)``."""
+    ``i <= j`` (``a_i = (1, x_i, y_i)`` of node ``i``).  With ``semi`` that block is returned as those
+    generators, ``gen`` (m, 7) = ``[d, a, p]`` (:func:`_semi_solve`), instead of the dense ``hess`` ((1, 1)
+    then), and ``hjp`` holds the joints-pieces couplings as records (:func:`_record`; every coupling is
+    ``a_j``-linear on the joints ``j <= k`` proximal to its contact's segment ``k``; :func:`_semi_schur_solve`):
+    returns ``(grad, hess, gen, hjp, hpp)``."""
     m = phi.shape[0]
     npc = u.shape[0]
     n = m + 3 * npc
@@ -612,7 +642,10 @@ def grad_hess(nodes, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law
     dense = want_hess and not semi
     hess = np.zeros((m, m)) if dense else np.zeros((1, 1))
     gen = np.zeros((m, 7)) if want_hess and semi else np.zeros((1, 7))
-    hjp = np.zeros((m, 3 * npc)) if want_hess else np.zeros((1, 1))
+    hjp = np.zeros((m, 3 * npc)) if dense else np.zeros((1, 1))
+    records = want_hess and semi and npc > 0
+    rec = np.empty((2 * pairs.shape[0] + fr_k.shape[0], 8)) if records else np.zeros((0, 8))
+    nrec = np.zeros(1, np.int64)
     hpp = np.zeros((npc, 3, 3)) if want_hess else np.zeros((1, 3, 3))
     for j in range(m):
         _, mj, dmj = joint_law(phi[j], k_j[j], mw_j[j], law_u, law_h, law_hi, law_slope, residual)
@@ -626,7 +659,10 @@ def grad_hess(nodes, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law
     va = np.zeros(m)
     vf = np.zeros((m, 2))
     acc_f, acc_m, acc_fx, _ = _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, pairs, fr_k, fr_s, fr_w, fr_wl, fr_t,
-                                             fr_mulam, fr_xr0, fr_xw0, dhat, kappa, eps_v, grad, hjp, hpp, smat, va, vf, want_hess)
+                                             fr_mulam, fr_xr0, fr_xw0, dhat, kappa, eps_v, grad, hjp, hpp, smat, va, vf, want_hess,
+                                             rec, nrec)
+    if records:
+        hjp = rec[:nrec[0]]
     # generalised forces of the contact and friction forces on the joints: suffix sums
     sfx = 0.0
     sfy = 0.0
@@ -797,11 +833,14 @@ def _semi_factor(gen, mu, q, low):
 
 
 @nb.njit(cache=True, nogil=True)
-def _semi_diag_max(gen):
-    """Largest absolute diagonal term of the joints' block in generators."""
+def _semi_diag_max(gen, hpp):
+    """Largest absolute diagonal term of the Hessian: its joints' block in generators, its pieces' ``hpp``."""
     out = 0.0
     for j in range(gen.shape[0]):
         out = max(out, abs(gen[j, 0] + gen[j, 1] * gen[j, 4] + gen[j, 2] * gen[j, 5] + gen[j, 3] * gen[j, 6]))
+    for p in range(hpp.shape[0]):
+        for i in range(3):
+            out = max(out, abs(hpp[p, i, i]))
     return out
 
 
@@ -811,29 +850,257 @@ def _semi_solve(gen, rhs, mu0):
     the same Levenberg shifts, each factor :func:`_semi_factor` in O(m), and the two substitutions in
     O(m) (``L_ik = p_i . q_k``: the sums over ``k`` are running sums of ``q_k y_k`` and ``p_k x_k``)."""
     m = gen.shape[0]
-    diag_max = _semi_diag_max(gen)
+    diag_max = _semi_diag_max(gen, np.zeros((0, 3, 3)))
     q = np.empty((m, 3))
     low = np.empty(m)
     mu = mu0
     for _ in range(40):
         if _semi_factor(gen, mu, q, low):
-            y = np.empty(m)
-            s0 = s1 = s2 = 0.0
-            for i in range(m):
-                y[i] = (rhs[i] - (gen[i, 4] * s0 + gen[i, 5] * s1 + gen[i, 6] * s2)) / low[i]
-                s0 += q[i, 0] * y[i]
-                s1 += q[i, 1] * y[i]
-                s2 += q[i, 2] * y[i]
-            x = np.empty(m)
-            t0 = t1 = t2 = 0.0
-            for i in range(m - 1, -1, -1):
-                x[i] = (y[i] - (q[i, 0] * t0 + q[i, 1] * t1 + q[i, 2] * t2)) / low[i]
-                t0 += gen[i, 4] * x[i]
-                t1 += gen[i, 5] * x[i]
-                t2 += gen[i, 6] * x[i]
-            return x, mu
+            return _semi_substitute(gen, q, low, rhs), mu
         mu = _next_shift(mu, diag_max)
     return np.zeros(m), -1.0
+
+
+@nb.njit(cache=True, nogil=True)
+def _semi_substitute(gen, q, low, rhs):
+    """Solve ``L L^T x = rhs`` for the factor of :func:`_semi_factor` (``L_ik = p_i . q_k`` below the
+    diagonal: the sums over ``k`` are running sums of ``q_k y_k`` and ``p_k x_k``), in O(m)."""
+    m = gen.shape[0]
+    y = np.empty(m)
+    s0 = s1 = s2 = 0.0
+    for i in range(m):
+        y[i] = (rhs[i] - (gen[i, 4] * s0 + gen[i, 5] * s1 + gen[i, 6] * s2)) / low[i]
+        s0 += q[i, 0] * y[i]
+        s1 += q[i, 1] * y[i]
+        s2 += q[i, 2] * y[i]
+    x = np.empty(m)
+    t0 = t1 = t2 = 0.0
+    for i in range(m - 1, -1, -1):
+        x[i] = (y[i] - (q[i, 0] * t0 + q[i, 1] * t1 + q[i, 2] * t2)) / low[i]
+        t0 += gen[i, 4] * x[i]
+        t1 += gen[i, 5] * x[i]
+        t2 += gen[i, 6] * x[i]
+    return x
+
+
+@nb.njit(cache=True, nogil=True)
+def _c3(c, d, e, out):
+    """``out = c d e^T`` for 3 x 3 matrices."""
+    for i in range(3):
+        t0 = c[i, 0] * d[0, 0] + c[i, 1] * d[1, 0] + c[i, 2] * d[2, 0]
+        t1 = c[i, 0] * d[0, 1] + c[i, 1] * d[1, 1] + c[i, 2] * d[2, 1]
+        t2 = c[i, 0] * d[0, 2] + c[i, 1] * d[1, 2] + c[i, 2] * d[2, 2]
+        for j in range(3):
+            out[i, j] = t0 * e[j, 0] + t1 * e[j, 1] + t2 * e[j, 2]
+
+
+@nb.njit(cache=True, nogil=True)
+def _semi_schur_solve(gen, rec, hpp, rhs, m, npc, mu0):
+    """:func:`_schur_solve` with the joints' block in generators and the joints-pieces couplings as
+    records (:func:`grad_hess` with ``semi``), in O(m + pieces) per shift instead of O(m^2 pieces + m^3).
+
+    A piece's coupling to joint ``i`` is ``a_i^T C(i)``, ``C(i)`` the sum of its records' ``c g^T`` on
+    segments ``>= i``.  Eliminating the piece (its own block ``D``) adds ``-a_i^T C(i) D^-1 C(j)^T a_j``;
+    for ``i < j`` that is of the generators' form ``a_i . p_j`` when ``C(i)`` is the same for every
+    ``i < j`` where ``C(j) != 0``: when the piece's contacts lie on one segment or two adjacent ones
+    (every piece of the colon's windows measured).  Those are eliminated into ``p`` (and the last
+    segment's diagonal ``d``); any other stays an unknown beside the joints and is eliminated after
+    them (its own Schur complement, one O(m) solve per column).  The same shifts are tried in the same
+    order; a shift is taken when every factor is positive definite, the condition of :func:`_schur_solve`
+    (the shifted Hessian positive definite).  Returns ``(x, mu)``, ``mu < 0`` if no shift did."""
+    if npc == 0:
+        return _semi_solve(gen, rhs, mu0)
+    n = m + 3 * npc
+    nrec = rec.shape[0]
+    diag_max = _semi_diag_max(gen, hpp)
+    klo = np.full(npc, m, np.int64)
+    khi = np.full(npc, -1, np.int64)
+    for r in range(nrec):
+        p = int(rec[r, 0])
+        k = int(rec[r, 1])
+        klo[p] = min(klo[p], k)
+        khi[p] = max(khi[p], k)
+    # pieces on at most two adjacent segments: C on all of them and on the last; any other: a column
+    # block of B (its couplings, m x 3) and a slot among the unknowns kept
+    ctot = np.zeros((npc, 3, 3))
+    chi = np.zeros((npc, 3, 3))
+    slot = np.full(npc, -1, np.int64)
+    nb_ = 0
+    for p in range(npc):
+        if khi[p] > klo[p] + 1:
+            slot[p] = nb_
+            nb_ += 1
+    suf = np.zeros((max(nb_, 1), m, 3, 3))
+    for r in range(nrec):
+        p = int(rec[r, 0])
+        k = int(rec[r, 1])
+        dst = ctot[p] if slot[p] < 0 else suf[slot[p], k]
+        for i in range(3):
+            for j in range(3):
+                cij = rec[r, 2 + i] * rec[r, 5 + j]
+                dst[i, j] += cij
+                if slot[p] < 0 and k > klo[p]:
+                    chi[p, i, j] += cij
+    bm = np.zeros((m, 3 * nb_))
+    for p in range(npc):
+        c = slot[p]
+        if c < 0:
+            continue
+        for k in range(m - 2, -1, -1):  # suffix sums: the couplings on segments >= k
+            for i in range(3):
+                for j in range(3):
+                    suf[c, k, i, j] += suf[c, k + 1, i, j]
+        for k in range(m):
+            for j in range(3):
+                bm[k, 3 * c + j] = suf[c, k, 0, j] + gen[k, 2] * suf[c, k, 1, j] + gen[k, 3] * suf[c, k, 2, j]
+    gen2 = gen.copy()
+    q = np.empty((m, 3))
+    low = np.empty(m)
+    d = np.empty((3, 3))
+    dinv = np.empty((npc, 3, 3))
+    msum = np.zeros((m, 3, 3))  # C D^-1 C^T of the pieces ending at each segment (then summed from the tip)
+    mhi = np.zeros((m, 3))  # the second segment's own p term, C D^-1 C_hi^T a
+    vsum = np.zeros((m, 3))  # C D^-1 rhs_p likewise
+    r = np.empty(m)
+    cd = np.empty((3, 3))
+    t33 = np.empty((3, 3))
+    mu = mu0
+    for _ in range(40):
+        ok = True
+        for p in range(npc):
+            for i in range(3):
+                for j in range(3):
+                    d[i, j] = hpp[p, i, j]
+                d[i, i] += mu
+            if not _inv3_spd(d, dinv[p]):
+                ok = False
+                break
+        if ok:
+            msum[:, :, :] = 0.0
+            mhi[:, :] = 0.0
+            vsum[:, :] = 0.0
+            for j in range(m):
+                gen2[j, 0] = gen[j, 0]
+                r[j] = rhs[j]
+            for p in range(npc):
+                if khi[p] < 0 or slot[p] >= 0:
+                    continue
+                kl = klo[p]
+                c = ctot[p]
+                dv = dinv[p]
+                _c3(c, dv, c, t33)
+                o = m + 3 * p
+                for i in range(3):
+                    cd[i, 0] = c[i, 0] * dv[0, 0] + c[i, 1] * dv[1, 0] + c[i, 2] * dv[2, 0]
+                    cd[i, 1] = c[i, 0] * dv[0, 1] + c[i, 1] * dv[1, 1] + c[i, 2] * dv[2, 1]
+                    cd[i, 2] = c[i, 0] * dv[0, 2] + c[i, 1] * dv[1, 2] + c[i, 2] * dv[2, 2]
+                    vsum[kl, i] += cd[i, 0] * rhs[o] + cd[i, 1] * rhs[o + 1] + cd[i, 2] * rhs[o + 2]
+                    for j in range(3):
+                        msum[kl, i, j] += t33[i, j]
+                kh = khi[p]
+                if kh > kl:  # on two segments: the second's row against the joints before it, and its diagonal
+                    a0, a1, a2 = 1.0, gen[kh, 2], gen[kh, 3]
+                    ch = chi[p]
+                    _c3(c, dv, ch, t33)
+                    h0 = t33[0, 0] * a0 + t33[0, 1] * a1 + t33[0, 2] * a2
+                    h1 = t33[1, 0] * a0 + t33[1, 1] * a1 + t33[1, 2] * a2
+                    h2 = t33[2, 0] * a0 + t33[2, 1] * a1 + t33[2, 2] * a2
+                    mhi[kh, 0] += h0
+                    mhi[kh, 1] += h1
+                    mhi[kh, 2] += h2
+                    # its diagonal is -a^T C_hi D^-1 C_hi^T a, of which p gives -a^T C D^-1 C_hi^T a: d takes the rest
+                    _c3(ch, dv, ch, t33)
+                    gen2[kh, 0] += (a0 * h0 + a1 * h1 + a2 * h2) - (
+                        a0 * (t33[0, 0] * a0 + t33[0, 1] * a1 + t33[0, 2] * a2)
+                        + a1 * (t33[1, 0] * a0 + t33[1, 1] * a1 + t33[1, 2] * a2)
+                        + a2 * (t33[2, 0] * a0 + t33[2, 1] * a1 + t33[2, 2] * a2))
+                    e0 = dv[0, 0] * rhs[o] + dv[0, 1] * rhs[o + 1] + dv[0, 2] * rhs[o + 2]
+                    e1 = dv[1, 0] * rhs[o] + dv[1, 1] * rhs[o + 1] + dv[1, 2] * rhs[o + 2]
+                    e2 = dv[2, 0] * rhs[o] + dv[2, 1] * rhs[o + 1] + dv[2, 2] * rhs[o + 2]
+                    r[kh] -= (a0 * (ch[0, 0] * e0 + ch[0, 1] * e1 + ch[0, 2] * e2)
+                              + a1 * (ch[1, 0] * e0 + ch[1, 1] * e1 + ch[1, 2] * e2)
+                              + a2 * (ch[2, 0] * e0 + ch[2, 1] * e1 + ch[2, 2] * e2))
+            for k in range(m - 2, -1, -1):
+                for i in range(3):
+                    vsum[k, i] += vsum[k + 1, i]
+                    for j in range(3):
+                        msum[k, i, j] += msum[k + 1, i, j]
+            for j in range(m):
+                a0, a1, a2 = 1.0, gen[j, 2], gen[j, 3]
+                for i in range(3):
+                    gen2[j, 4 + i] = gen[j, 4 + i] - (msum[j, i, 0] * a0 + msum[j, i, 1] * a1 + msum[j, i, 2] * a2) - mhi[j, i]
+                r[j] -= vsum[j, 0] * a0 + vsum[j, 1] * a1 + vsum[j, 2] * a2
+            if _semi_factor(gen2, mu, q, low):
+                z = _semi_substitute(gen2, q, low, r)
+                spd = True
+                xb = np.zeros(3 * nb_)
+                if nb_ > 0:  # the pieces kept: T = D + mu I - B^T S^-1 B
+                    y = np.empty((m, 3 * nb_))
+                    for c in range(3 * nb_):
+                        y[:, c] = _semi_substitute(gen2, q, low, np.ascontiguousarray(bm[:, c]))
+                    t = np.zeros((3 * nb_, 3 * nb_))
+                    rb = np.empty(3 * nb_)
+                    for p in range(npc):
+                        c = slot[p]
+                        if c < 0:
+                            continue
+                        for i in range(3):
+                            for j in range(3):
+                                t[3 * c + i, 3 * c + j] = hpp[p, i, j]
+                            t[3 * c + i, 3 * c + i] += mu
+                            rb[3 * c + i] = rhs[m + 3 * p + i]
+                    t -= bm.T @ y
+                    rb -= bm.T @ z
+                    for i in range(3 * nb_):  # symmetric to rounding: its lower half
+                        for j in range(i + 1, 3 * nb_):
+                            t[i, j] = t[j, i]
+                    lt, spd = _try_cholesky(t)
+                    if spd:
+                        xb = _substitute(lt, rb)
+                        z -= y @ xb
+                if spd:
+                    x = np.empty(n)
+                    x[:m] = z
+                    # the eliminated pieces: x_p = D^-1 (rhs_p - B_p^T z), B_p^T z = C^T sum_{i <= k_lo} a_i z_i
+                    # (+ C_hi^T a_kh z_kh on a second segment)
+                    pre = np.empty((m, 3))
+                    s0 = s1 = s2 = 0.0
+                    for i in range(m):
+                        s0 += z[i]
+                        s1 += gen[i, 2] * z[i]
+                        s2 += gen[i, 3] * z[i]
+                        pre[i, 0] = s0
+                        pre[i, 1] = s1
+                        pre[i, 2] = s2
+                    for p in range(npc):
+                        o = m + 3 * p
+                        if slot[p] >= 0:
+                            for i in range(3):
+                                x[o + i] = xb[3 * slot[p] + i]
+                            continue
+                        v0 = rhs[o]
+                        v1 = rhs[o + 1]
+                        v2 = rhs[o + 2]
+                        if khi[p] >= 0:
+                            kl = klo[p]
+                            c = ctot[p]
+                            v0 -= c[0, 0] * pre[kl, 0] + c[1, 0] * pre[kl, 1] + c[2, 0] * pre[kl, 2]
+                            v1 -= c[0, 1] * pre[kl, 0] + c[1, 1] * pre[kl, 1] + c[2, 1] * pre[kl, 2]
+                            v2 -= c[0, 2] * pre[kl, 0] + c[1, 2] * pre[kl, 1] + c[2, 2] * pre[kl, 2]
+                            kh = khi[p]
+                            if kh > kl:
+                                ch = chi[p]
+                                w0 = z[kh]
+                                w1 = gen[kh, 2] * z[kh]
+                                w2 = gen[kh, 3] * z[kh]
+                                v0 -= ch[0, 0] * w0 + ch[1, 0] * w1 + ch[2, 0] * w2
+                                v1 -= ch[0, 1] * w0 + ch[1, 1] * w1 + ch[2, 1] * w2
+                                v2 -= ch[0, 2] * w0 + ch[1, 2] * w1 + ch[2, 2] * w2
+                        for i in range(3):
+                            x[o + i] = dinv[p, i, 0] * v0 + dinv[p, i, 1] * v1 + dinv[p, i, 2] * v2
+                    return x, mu
+        mu = _next_shift(mu, diag_max)
+    return np.zeros(n), -1.0
 
 
 @nb.njit(cache=True, nogil=True)
@@ -1026,7 +1293,6 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
     m = phi.shape[0]
     npc = u.shape[0]
     n = m + 3 * npc
-    semi = semi and npc == 0  # (with compliant pieces the Schur complement is dense)
     rows = _rows_where(rows0, dhat + 2.0 * max_move)
     pairs = _rows_to_pairs(rows)
     anchor, _ = chain_nodes(theta0, n0, phi, seg_len)
@@ -1063,7 +1329,7 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
         if it == max_iter:
             break
         if semi:
-            step, shift = _semi_solve(gen, -grad, max(0.1 * shift, damp))
+            step, shift = _semi_schur_solve(gen, hjp, hpp, -grad, m, npc, max(0.1 * shift, damp))
         else:
             step, shift = _schur_solve(hess, hjp, hpp, -grad, m, npc, max(0.1 * shift, damp))
         if shift < 0:
@@ -1116,7 +1382,7 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
         # an indefinite model (a kink's plateau under compression) gives long steps that the line search
         # cuts: damp the next step instead (a trust region in Levenberg-Marquardt's form)
         if alpha < 0.1 * scale:
-            damp = max(10.0 * max(damp, shift), 1e-6 * (_semi_diag_max(gen) if semi else _diag_max(hess, hpp)))
+            damp = max(10.0 * max(damp, shift), 1e-6 * (_semi_diag_max(gen, hpp) if semi else _diag_max(hess, hpp)))
         elif alpha >= 0.5 * scale:
             damp *= 0.1
         phi[:] = trial_phi
