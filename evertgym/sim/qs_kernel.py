@@ -361,9 +361,10 @@ def _slip(c, nodes, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_xr0, fr_xw0, wpiece, pose)
 @nb.njit(cache=True, nogil=True)
 def energy(nodes, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
            wa, wb, wpiece, wvert, wrad, pc0, u, pairs, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0, fr_xw0,
-           dhat, kappa, eps_v):
+           dhat, kappa, eps_v, geo):
     """The incremental potential (J) at ``phi`` (its nodes ``nodes``, :func:`chain_nodes`); ``inf`` where
-    any robot-wall gap is not positive."""
+    any robot-wall gap is not positive.  Each pair's :func:`_pair_at` goes into row ``c`` of ``geo``
+    (at least as many rows as ``pairs``): :func:`grad_hess` at the same configuration reads it there."""
     m = phi.shape[0]
     e = 0.0
     for j in range(m):
@@ -371,7 +372,10 @@ def energy(nodes, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_sl
         e += w_
     pose = poses(pc0, u)
     for c in range(pairs.shape[0]):
-        gap = _pair_at(nodes, pairs[c, 0], pairs[c, 1], seg_rad, wa, wb, wpiece, wvert, wrad, pose)[10]
+        g = _pair_at(nodes, pairs[c, 0], pairs[c, 1], seg_rad, wa, wb, wpiece, wvert, wrad, pose)
+        for i in range(11):
+            geo[c, i] = g[i]
+        gap = g[10]
         if gap <= 0.0:
             return np.inf
         b, _, _ = _barrier(gap, dhat)
@@ -506,11 +510,12 @@ def _apply_force(m, k, s, px, py, qx, qy, fx, fy, p, pc0, u, ex, ey, acc_f, acc_
 
 @nb.njit(cache=True, nogil=True)
 def _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, pairs, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0, fr_xw0,
-                   dhat, kappa, eps_v, grad, hjp, hpp, smat, va, vf, want_hess, rec, nrec):
+                   dhat, kappa, eps_v, grad, hjp, hpp, smat, va, vf, want_hess, rec, nrec, geo, use_geo):
     """Barrier and lagged-friction forces of the window: per segment the sums of the force on the
     robot ``f`` (N), of ``p x f`` (N m) and of ``f . p`` (N m); the wall pieces' generalised forces
     go into ``grad[m:]``, the rank-one Hessian terms into ``smat``, ``hjp`` and ``hpp`` (if ``want_hess``; see
-    :func:`grad_hess`; the joints-pieces couplings as records into ``rec`` instead if it has rows).  Also the
+    :func:`grad_hess`; the joints-pieces couplings as records into ``rec`` instead if it has rows; with
+    ``use_geo`` each pair's :func:`_pair_at` read from ``geo``, as :func:`energy` left it).  Also the
     wall's reaction against growth ``-sum s f . e_tip`` over the tip segment (N) and the total force
     on the tip segment (N)."""
     acc_f = np.zeros((m, 2))
@@ -524,7 +529,11 @@ def _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0,
     for c in range(pairs.shape[0]):
         k = pairs[c, 0]
         w = pairs[c, 1]
-        cx, cy, dx, dy, s, px, py, qx, qy, dist, gap = _pair_at(nodes, k, w, seg_rad, wa, wb, wpiece, wvert, wrad, pose)
+        if use_geo:
+            cx, cy, dx, dy, s, px, py, qx, qy, dist, gap = (geo[c, 0], geo[c, 1], geo[c, 2], geo[c, 3], geo[c, 4], geo[c, 5],
+                                                            geo[c, 6], geo[c, 7], geo[c, 8], geo[c, 9], geo[c, 10])
+        else:
+            cx, cy, dx, dy, s, px, py, qx, qy, dist, gap = _pair_at(nodes, k, w, seg_rad, wa, wb, wpiece, wvert, wrad, pose)
         if gap >= dhat or gap <= 0.0:
             continue
         _, b1, b2 = _barrier(gap, dhat)
@@ -602,7 +611,7 @@ def segment_forces(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wra
     acc_f, acc_m, _, tip = _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, pairs, fr_k, fr_s, fr_w, fr_wl, fr_t,
                                           fr_mulam, fr_xr0, fr_xw0, dhat, kappa, eps_v, grad, np.zeros((1, 1)), np.zeros((1, 3, 3)),
                                           np.zeros((m, 3, 3)), np.zeros(m), np.zeros((m, 2)), False, np.zeros((0, 8)),
-                                          np.zeros(1, np.int64))
+                                          np.zeros(1, np.int64), np.zeros((0, 11)), False)
     # the tip segment's clearance among the candidates (inf if none)
     for i in range(wide.shape[0]):
         if int(wide[i, 0]) == m - 1:
@@ -622,7 +631,7 @@ def joint_moments(phi, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual):
 @nb.njit(cache=True, nogil=True)
 def grad_hess(nodes, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
               wa, wb, wpiece, wvert, wrad, pc0, u, pairs, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0, fr_xw0,
-              dhat, kappa, eps_v, want_hess, semi):
+              dhat, kappa, eps_v, want_hess, semi, geo):
     """Gradient (n,) and Hessian of :func:`energy` at ``phi`` (its nodes ``nodes``) over
     ``z = [phi, u.ravel()]``, in blocks: joints ``hess`` (m, m), joints-pieces ``hjp`` (m, 3 npc) and
     each piece's own ``hpp`` (npc, 3, 3) (the pieces are independent springs: no piece-piece
@@ -634,7 +643,8 @@ def grad_hess(nodes, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law
     generators, ``gen`` (m, 7) = ``[d, a, p]`` (:func:`_semi_solve`), instead of the dense ``hess`` ((1, 1)
     then), and ``hjp`` holds the joints-pieces couplings as records (:func:`_record`; every coupling is
     ``a_j``-linear on the joints ``j <= k`` proximal to its contact's segment ``k``; :func:`_semi_schur_solve`):
-    returns ``(grad, hess, gen, hjp, hpp)``."""
+    returns ``(grad, hess, gen, hjp, hpp)``.  ``geo``: the pairs' geometry as :func:`energy` left it at
+    this configuration (the same bits as computing it again)."""
     m = phi.shape[0]
     npc = u.shape[0]
     n = m + 3 * npc
@@ -660,7 +670,7 @@ def grad_hess(nodes, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law
     vf = np.zeros((m, 2))
     acc_f, acc_m, acc_fx, _ = _contact_terms(nodes, m, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, pairs, fr_k, fr_s, fr_w, fr_wl, fr_t,
                                              fr_mulam, fr_xr0, fr_xw0, dhat, kappa, eps_v, grad, hjp, hpp, smat, va, vf, want_hess,
-                                             rec, nrec)
+                                             rec, nrec, geo, True)
     if records:
         hjp = rec[:nrec[0]]
     # generalised forces of the contact and friction forces on the joints: suffix sums
@@ -1301,12 +1311,15 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
     # that can act while nothing has moved by more than the margin since (the others add exactly zero)
     rho = _piece_reach(wa, wb, wpiece, npc)
     near = _rows_to_pairs(_rows_where(rows, dhat + _NEAR_MARGIN_M))
+    # the near pairs' geometry at the last configuration whose energy was taken: the one grad_hess is
+    # asked for next (the start; an accepted trial; the start after the pairs were listed again)
+    geo = np.empty((pairs.shape[0], 11))
     ref_nodes = anchor
     ref_u = u.copy()
     nodes = anchor  # of phi, as phi moves
     e0 = energy(nodes, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
                 wa, wb, wpiece, wvert, wrad, pc0, u, near, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam, fr_xr0, fr_xw0,
-                dhat, kappa, eps_v)
+                dhat, kappa, eps_v, geo)
     if not math.isfinite(e0):
         return INFEASIBLE_START, 0, np.inf, np.inf
     res_m = np.inf
@@ -1316,7 +1329,7 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
     for it in range(max_iter + 1):
         grad, hess, gen, hjp, hpp = grad_hess(nodes, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
                                wa, wb, wpiece, wvert, wrad, pc0, u, near, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam,
-                               fr_xr0, fr_xw0, dhat, kappa, eps_v, True, semi)
+                               fr_xr0, fr_xw0, dhat, kappa, eps_v, True, semi, geo)
         res_m = 0.0
         for j in range(m):
             res_m = max(res_m, abs(grad[j]))
@@ -1372,7 +1385,7 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
                 ref_u = u_try.copy()
             e1 = energy(trial_nodes, trial_phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
                         wa, wb, wpiece, wvert, wrad, pc0, u_try, near, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam,
-                        fr_xr0, fr_xw0, dhat, kappa, eps_v)
+                        fr_xr0, fr_xw0, dhat, kappa, eps_v, geo)
             if math.isfinite(e1) and (e1 <= e0 + 1e-4 * alpha * slope or (e1 - e0) <= 1e-13 * abs(e0)):
                 accepted = True
                 break
@@ -1400,6 +1413,7 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
             # start, and a body that moved this far may meet walls that were not among them
             rows = contacts(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, dhat, 2.0 * max_move)
             pairs = _rows_to_pairs(rows)
+            geo = np.empty((pairs.shape[0], 11))
             anchor = now
             anchor_u = u.copy()
             near = _rows_to_pairs(_rows_where(rows, dhat + _NEAR_MARGIN_M))
@@ -1407,7 +1421,7 @@ def solve(theta0, n0, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, la
             ref_u = u.copy()
             e0 = energy(nodes, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
                         wa, wb, wpiece, wvert, wrad, pc0, u, near, kaa, fh, travel, k_travel, fr_k, fr_s, fr_w, fr_wl, fr_t, fr_mulam,
-                        fr_xr0, fr_xw0, dhat, kappa, eps_v)
+                        fr_xr0, fr_xw0, dhat, kappa, eps_v, geo)
         else:  # the same pairs at the accepted trial: its energy
             e0 = e1
     return MAX_ITERATIONS, max_iter, res_m, res_f
