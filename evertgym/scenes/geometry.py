@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numba as nb
 import numpy as np
 
 #: Point-vertex pairs whose distances :func:`nearest_vertex` holds at a time (memory, not speed).
@@ -153,26 +154,51 @@ def polyline_normals(poly: np.ndarray) -> np.ndarray:
 
 def simplify(poly: np.ndarray, tol: float) -> np.ndarray:
     """Indices of the vertices kept by Ramer-Douglas-Peucker at tolerance ``tol`` (m)."""
-    keep = np.zeros(len(poly), bool)
-    keep[[0, -1]] = True
-    stack = [(0, len(poly) - 1)]
-    while stack:
-        a, b = stack.pop()
+    return np.flatnonzero(_rdp_keep(np.ascontiguousarray(poly, dtype=np.float64), float(tol)))
+
+
+@nb.njit(cache=True, nogil=True)
+def _rdp_keep(poly: np.ndarray, tol: float) -> np.ndarray:
+    """:func:`simplify`'s kept vertices as a mask: each span's farthest vertex from its chord (the first
+    of equals), kept if farther than ``tol``, then both halves (the arithmetic of numpy's vectorised
+    form, element by element)."""
+    n = poly.shape[0]
+    keep = np.zeros(n, np.bool_)
+    if n == 0:
+        return keep
+    keep[0] = True
+    keep[n - 1] = True
+    stack = np.empty((2 * n + 2, 2), np.int64)
+    top = 0
+    stack[0, 0] = 0
+    stack[0, 1] = n - 1
+    top = 1
+    while top > 0:
+        top -= 1
+        a = stack[top, 0]
+        b = stack[top, 1]
         if b - a < 2:
             continue
-        seg = poly[b] - poly[a]
-        rel = poly[a + 1:b] - poly[a]
-        norm = np.hypot(*seg)
-        if norm > 0:
-            dist = np.abs(seg[0] * rel[:, 1] - seg[1] * rel[:, 0]) / norm
-        else:
-            dist = np.hypot(rel[:, 0], rel[:, 1])
-        i = int(np.argmax(dist))
-        if dist[i] > tol:
-            m = a + 1 + i
-            keep[m] = True
-            stack += [(a, m), (m, b)]
-    return np.flatnonzero(keep)
+        sx = poly[b, 0] - poly[a, 0]
+        sy = poly[b, 1] - poly[a, 1]
+        norm = math.hypot(sx, sy)
+        best = -1.0
+        at = 0
+        for j in range(a + 1, b):
+            rx = poly[j, 0] - poly[a, 0]
+            ry = poly[j, 1] - poly[a, 1]
+            d = abs(sx * ry - sy * rx) / norm if norm > 0 else math.hypot(rx, ry)
+            if d > best or j == a + 1:
+                best = d
+                at = j
+        if best > tol:
+            keep[at] = True
+            stack[top, 0] = a
+            stack[top, 1] = at
+            stack[top + 1, 0] = at
+            stack[top + 1, 1] = b
+            top += 2
+    return keep
 
 
 def nearest_vertex(points: np.ndarray, poly: np.ndarray) -> np.ndarray:
