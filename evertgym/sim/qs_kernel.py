@@ -1597,12 +1597,24 @@ def overlaps(theta0, n0, phi, seg_len, seg_rad, feats, box_lo, box_hi, wa, wb, w
     pose = np.empty((u.shape[0], 4))
     have = np.zeros(u.shape[0], np.bool_)
     for w in feats:
+        # a wall piece's box covers its whole travel: its feature where it is now (grown by its radius)
+        # is a tighter test before the exact one
+        flx, fhx, fly, fhy = box_lo[w, 0], box_hi[w, 0], box_lo[w, 1], box_hi[w, 1]
+        posed = False
         for b in range(blocks.shape[0] - 1, -1, -1):  # from the tip, where an overlap is likeliest
-            if box_hi[w, 0] < blocks[b, 0] or box_lo[w, 0] > blocks[b, 1] or box_hi[w, 1] < blocks[b, 2] or box_lo[w, 1] > blocks[b, 3]:
+            if fhx < blocks[b, 0] or flx > blocks[b, 1] or fhy < blocks[b, 2] or fly > blocks[b, 3]:
                 continue
+            if not posed and wpiece[w] >= 0:
+                _lazy_pose(pose, have, w, wpiece, pc0, u)
+                cx, cy, dx, dy = wall_world(w, wa, wb, wpiece, pose)
+                flx, fhx = min(cx, dx) - wrad[w], max(cx, dx) + wrad[w]
+                fly, fhy = min(cy, dy) - wrad[w], max(cy, dy) + wrad[w]
+                posed = True
+                if fhx < blocks[b, 0] or flx > blocks[b, 1] or fhy < blocks[b, 2] or fly > blocks[b, 3]:
+                    continue
             for k in range(min(m, (b + 1) * _BLOCK) - 1, b * _BLOCK - 1, -1):
                 lx, hx, ly, hy = _segment_box(nodes, k, seg_rad[k])
-                if box_hi[w, 0] < lx or box_lo[w, 0] > hx or box_hi[w, 1] < ly or box_lo[w, 1] > hy:
+                if fhx < lx or flx > hx or fhy < ly or fly > hy:
                     continue
                 _lazy_pose(pose, have, w, wpiece, pc0, u)
                 if _pair_at(nodes, k, w, seg_rad, wa, wb, wpiece, wvert, wrad, pose)[10] <= 0.0:
