@@ -250,3 +250,66 @@ def test_the_semiseparable_solve_with_wall_pieces_is_the_dense_schur_solve_to_ro
         assert np.max(np.abs(x_semi - x_dense)) <= 1e-8 * np.max(np.abs(x_dense))
         shifted += mu_dense > 0
     assert shifted > 20 and kept > 20  # the ladder and the kept pieces were exercised
+
+
+def test_a_solves_setup_in_one_call_is_the_setup_of_the_separate_calls():
+    """``window_setup`` (one compiled call) against the functions it composes and the numpy glue it replaced, at
+    every third window start of a Colon-v0 episode (wall pieces displaced, friction entries behind the window), and
+    ``merge_friction`` against the concatenation it replaced."""
+    import gymnasium as gym
+
+    import evertgym  # noqa: F401  (registers the envs)
+
+    env = gym.make("evertgym/Colon-v0")
+    env.reset(seed=2)
+    sim = env.unwrapped.sim
+    rng = np.random.default_rng(7)
+    checked = entries = 0
+    for step in range(60):
+        env.step(rng.uniform(env.action_space.low, env.action_space.high).astype(np.float32))
+        if step % 10:
+            continue
+        nodes, theta = sim._all_nodes()
+        w, fric = sim._walls, sim._fric
+        cos_u, sin_u = np.cos(sim._u_all[:, 2]), np.sin(sim._u_all[:, 2])
+        for a in range(0, len(sim.phi), 3):
+            theta0 = sim.base_angle if a == 0 else float(theta[a - 1])
+            out = qk.window_setup(nodes, theta0, a, sim.phi, sim.seg_len, sim.seg_rad, sim.nodes, sim.length, sim._k_all,
+                                  sim._mw_all, *sim._feature_boxes, w.a, w.b, w.piece, w.vertex, w.radius, w.friction, sim._pc0,
+                                  sim._u_all, cos_u, sin_u, sim._k_piece, sim._travel, sim._k_travel, fric["s"], fric["wall"],
+                                  fric["wl"], fric["t"], fric["ml"], sim.ds, 0.001 + 0.012, 0.001 + 0.003, 0.4, 0.3)
+            m = len(sim.phi) - a
+            seg_rad = sim.seg_rad[a:].copy()
+            sel = qk.select_features(nodes[a:], seg_rad, *sim._feature_boxes, 0.001 + 0.012)
+            overlap = qk.overlaps(theta0, nodes[a].copy(), sim.phi[a:].copy(), sim.seg_len[a:].copy(), seg_rad, sel,
+                                  *sim._feature_boxes, w.a, w.b, w.piece, w.vertex, w.radius, sim._pc0, sim._u_all)
+            assert out[0] == overlap and np.array_equal(out[8], sel)
+            if overlap:
+                continue
+            gathered = qk.gather_walls(sel, w.a, w.b, w.piece, w.vertex, w.radius, w.friction)
+            wa, wb, pieces, wpiece = qk.piece_window(nodes[a:], seg_rad, nodes[: a + 1], sim.seg_rad[:a], a, *sim._feature_boxes,
+                                                     sel, *gathered[:5], sim._pc0, sim._u_all, cos_u, sin_u, 0.001 + 0.003)
+            friction = qk.window_friction(fric["s"], fric["wall"], fric["wl"], fric["t"], fric["ml"], sel, sim.ds,
+                                          len(sim.seg_len), a)
+            robot_mu = np.full(m, 0.4)
+            robot_mu[-1] = 0.3
+            want = (nodes[a], sim.phi[a:], sim.seg_len[a:], seg_rad, np.concatenate((sim.nodes[a:a + m], (sim.length,))),
+                    sim._k_all[a:a + m], sim._mw_all[a:a + m], sel, wa, wb, wpiece, *gathered[3:], pieces, sim._pc0[pieces],
+                    sim._u_all[pieces], sim._k_piece[pieces], np.zeros(3 * len(pieces)), np.full(len(pieces), sim._travel),
+                    np.full(len(pieces), sim._k_travel), robot_mu, *friction)
+            for g, x in zip(out[1:], want):
+                assert g.shape == x.shape and g.dtype == x.dtype and np.array_equal(g, x)
+            # the commit: entries outside the window kept, the window's own appended (as if the solve returned them)
+            in_window, f_s, f_w, f_wl, f_t, f_ml = friction
+            merged = qk.merge_friction(fric["s"], fric["wall"], fric["wl"], fric["t"], fric["ml"], in_window, sel, f_s, f_w,
+                                       f_wl, f_t, f_ml)
+            keep = ~in_window
+            concat = (np.concatenate([fric["s"][keep], f_s]), np.concatenate([fric["wall"][keep], sel[f_w]]),
+                      np.concatenate([fric["wl"][keep], f_wl]), np.concatenate([fric["t"][keep], f_t]),
+                      np.concatenate([fric["ml"][keep], f_ml]))
+            for g, x in zip(merged, concat):
+                assert g.dtype == x.dtype and np.array_equal(g, x)
+            checked += 1
+            entries += len(f_s)
+    env.close()
+    assert checked > 10 and entries > 0

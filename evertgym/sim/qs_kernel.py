@@ -1867,3 +1867,104 @@ def piece_window(nodes, seg_rad, held_nodes, held_rad, a, box_lo, box_hi, sel, a
         wb[f, 0] = o0 + cs * b_sel[f, 0] - sn * b_sel[f, 1]
         wb[f, 1] = o1 + sn * b_sel[f, 0] + cs * b_sel[f, 1]
     return wa, wb, pieces, wpiece
+
+
+@nb.njit(cache=True, nogil=True)
+def window_setup(nodes, theta0, a, phi_all, seg_len_all, seg_rad_all, s_all, length, k_all, mw_all, box_lo, box_hi,
+                 w_a, w_b, w_piece, w_vert, w_rad, w_mu, pc0_all, u_all, cos_u, sin_u, k_piece, travel, k_travel,
+                 fr_s, fr_wall, fr_wl, fr_t, fr_ml, ds, reach, piece_reach, wall_friction, tip_friction):
+    """Everything a solve of joints ``a..`` needs, in one call (the scene's chain ``nodes``, its joints'
+    rotations ``phi_all`` (rad), lengths and radii (m), material coordinates of the nodes ``s_all`` and
+    the tip's ``length`` (m), stiffnesses ``k_all`` and collapse moments ``mw_all``; the wall features
+    (boxes, ends, pieces, vertex flags, radii, friction); the compliant pieces (rest centres ``pc0_all``,
+    displacements ``u_all`` and the cosine and sine of their rotations, own stiffnesses ``k_piece``, the
+    travel stop); the lagged friction entries ``fr_*``): the features within ``reach`` (m) of the window
+    (:func:`select_features`), whether the window overlaps one (:func:`overlaps`; nothing else is
+    gathered then), the features' arrays (:func:`gather_walls`), the unknown pieces within ``piece_reach``
+    (:func:`piece_window`) and their arrays, the robot's friction coefficients per segment, and the
+    friction entries in the window (:func:`window_friction`).
+
+    Returns ``(overlap, n0, phi, seg_len, seg_rad, s_nodes, k_j, mw_j, sel, wa, wb, wpiece, w_vertex,
+    w_radius, w_friction, pieces, pc0, u, kaa, fh, travel, k_travel, robot_mu, in_window, f_s, f_w, f_wl,
+    f_t, f_ml)``."""
+    n = phi_all.shape[0]
+    m = n - a
+    wnodes = nodes[a:]
+    n0 = nodes[a].copy()
+    phi = phi_all[a:].copy()
+    seg_len = seg_len_all[a:].copy()
+    seg_rad = seg_rad_all[a:].copy()
+    sel = select_features(wnodes, seg_rad, box_lo, box_hi, reach)
+    npc_all = pc0_all.shape[0]
+    if overlaps(theta0, n0, phi, seg_len, seg_rad, sel, box_lo, box_hi, w_a, w_b, w_piece, w_vert, w_rad, pc0_all, u_all):
+        e2 = np.zeros((0, 2))
+        e_i = np.zeros(0, np.int64)
+        e_f = np.zeros(0)
+        return (True, n0, phi, seg_len, seg_rad, e_f, e_f, e_f, sel, e2, e2, e_i, np.zeros(0, w_vert.dtype), e_f, e_f, e_i,
+                e2, np.zeros((0, 3)), np.zeros((0, 3, 3)), e_f, e_f, e_f, e_f, np.zeros(0, np.bool_), e_f, e_i, e2, e2, e_f)
+    s_nodes = np.empty(m + 1)
+    for j in range(m):
+        s_nodes[j] = s_all[a + j]
+    s_nodes[m] = length
+    k_j = k_all[a:a + m].copy()
+    mw_j = mw_all[a:a + m].copy()
+    a_sel, b_sel, wpiece_g, w_vertex, w_radius, w_friction = gather_walls(sel, w_a, w_b, w_piece, w_vert, w_rad, w_mu)
+    if npc_all > 0:
+        wa, wb, pieces, wpiece = piece_window(wnodes, seg_rad, nodes[:a + 1], seg_rad_all[:a], a, box_lo, box_hi, sel, a_sel,
+                                              b_sel, wpiece_g, w_vertex, w_radius, pc0_all, u_all, cos_u, sin_u, piece_reach)
+    else:
+        wa, wb = a_sel, b_sel
+        pieces = np.zeros(0, np.int64)
+        wpiece = np.full(sel.shape[0], -1, np.int64)
+    npc = pieces.shape[0]
+    pc0 = np.empty((npc, 2))
+    u = np.empty((npc, 3))
+    kaa = np.empty((npc, 3, 3))
+    for i in range(npc):
+        p = pieces[i]
+        pc0[i, 0] = pc0_all[p, 0]
+        pc0[i, 1] = pc0_all[p, 1]
+        for c in range(3):
+            u[i, c] = u_all[p, c]
+            for d in range(3):
+                kaa[i, c, d] = k_piece[p, c, d]
+    fh = np.zeros(3 * npc)
+    travel_p = np.full(npc, travel)
+    k_travel_p = np.full(npc, k_travel)
+    robot_mu = np.full(m, wall_friction)
+    robot_mu[m - 1] = tip_friction
+    in_window, f_s, f_w, f_wl, f_t, f_ml = window_friction(fr_s, fr_wall, fr_wl, fr_t, fr_ml, sel, ds, n, a)
+    return (False, n0, phi, seg_len, seg_rad, s_nodes, k_j, mw_j, sel, wa, wb, wpiece, w_vertex, w_radius, w_friction, pieces,
+            pc0, u, kaa, fh, travel_p, k_travel_p, robot_mu, in_window, f_s, f_w, f_wl, f_t, f_ml)
+
+
+@nb.njit(cache=True, nogil=True)
+def merge_friction(fr_s, fr_wall, fr_wl, fr_t, fr_ml, in_window, sel, e_s, e_w, e_wl, e_t, e_ml):
+    """The lagged friction entries after a solve: those outside its window as they were, then the
+    solve's own (``e_*``; their features ``e_w`` positions in ``sel``, mapped back to the scene's)."""
+    keep = 0
+    for i in range(fr_s.shape[0]):
+        keep += not in_window[i]
+    n = keep + e_s.shape[0]
+    o_s, o_w, o_wl, o_t, o_ml = _empty_entries(n)
+    c = 0
+    for i in range(fr_s.shape[0]):
+        if not in_window[i]:
+            o_s[c] = fr_s[i]
+            o_w[c] = fr_wall[i]
+            o_wl[c, 0] = fr_wl[i, 0]
+            o_wl[c, 1] = fr_wl[i, 1]
+            o_t[c, 0] = fr_t[i, 0]
+            o_t[c, 1] = fr_t[i, 1]
+            o_ml[c] = fr_ml[i]
+            c += 1
+    for i in range(e_s.shape[0]):
+        o_s[c] = e_s[i]
+        o_w[c] = sel[e_w[i]]
+        o_wl[c, 0] = e_wl[i, 0]
+        o_wl[c, 1] = e_wl[i, 1]
+        o_t[c, 0] = e_t[i, 0]
+        o_t[c, 1] = e_t[i, 1]
+        o_ml[c] = e_ml[i]
+        c += 1
+    return o_s, o_w, o_wl, o_t, o_ml

@@ -65,6 +65,7 @@ _P_SCALE_FLOOR = 1000.0
 _QUERY_MARGIN_M = 0.012
 #: Pieces of a compliant wall within this (m) of a segment, beyond the barrier's reach, are unknowns of a solve.
 _PIECE_MARGIN_M = 0.003
+_NO_ANGLES = np.zeros(0)  # the pieces' rotations' cosines and sines in a scene without pieces
 #: Solves for which a window widened by an out-of-balance held joint stays wide.
 _REJOIN_MEMORY = 50
 #: Chord tolerance (m) of a compliant piece's outline as a contact feature.
@@ -853,46 +854,21 @@ class QuasiStaticSim(GrowingTube):
         cfg = self.cfg
         nodes, theta = self._all_nodes()
         theta0 = self.base_angle if a == 0 else float(theta[a - 1])
-        n0 = nodes[a].copy()
-        phi = self.phi[a:].copy()
-        seg_len = self.seg_len[a:].copy()
-        seg_rad = self.seg_rad[a:].copy()
-        m = len(phi)
-        phi_ref = phi.copy()
-        walls = self._walls
-        sel = qk.select_features(nodes[a:], seg_rad, *self._feature_boxes, cfg.barrier_gap_m + margin)
-        if qk.overlaps(theta0, n0, phi, seg_len, seg_rad, sel, *self._feature_boxes, walls.a, walls.b, walls.piece, walls.vertex,
-                       walls.radius, self._pc0, self._u_all):  # the features an overlap can involve are all in sel
-            return False
-        s_nodes = np.concatenate((self.nodes[a : a + m], (self.length,)))
-        k_j = np.ascontiguousarray(self._k_all[a : a + m])
-        mw_j = np.ascontiguousarray(self._mw_all[a : a + m])
-        a_sel, b_sel, wpiece_g, w_vertex, w_radius, w_friction = qk.gather_walls(sel, walls.a, walls.b, walls.piece, walls.vertex,
-                                                                                 walls.radius, walls.friction)
-        # the wall pieces the robot is about to touch are unknowns (independent springs); the other
-        # pieces' features are walls held where they are for this solve
-        wa, wb = a_sel, b_sel
-        pieces = np.zeros(0, np.int64)
-        wpiece = np.full(len(sel), -1, np.int64)
-        if self._piece_bodies:
-            wa, wb, pieces, wpiece = qk.piece_window(nodes[a:], seg_rad, nodes[: a + 1], self.seg_rad[:a], a, *self._feature_boxes, sel,
-                                                     a_sel, b_sel, wpiece_g, w_vertex, w_radius, self._pc0, self._u_all,
-                                                     np.cos(self._u_all[:, 2]), np.sin(self._u_all[:, 2]),
-                                                     cfg.barrier_gap_m + _PIECE_MARGIN_M)
-        pc0 = self._pc0[pieces] if len(pieces) else np.zeros((0, 2))
-        u = self._u_all[pieces] if len(pieces) else np.zeros((0, 3))
-        if len(pieces):
-            kaa = self._k_piece[pieces]
-            fh = np.zeros(3 * len(pieces))
-            travel = np.full(len(pieces), self._travel)
-            k_travel = np.full(len(pieces), self._k_travel)
+        walls, fric = self._walls, self._fric
+        if len(self._piece_bodies):
+            cos_u, sin_u = np.cos(self._u_all[:, 2]), np.sin(self._u_all[:, 2])
         else:
-            kaa, fh, travel, k_travel = np.zeros((0, 3, 3)), np.zeros(0), np.zeros(0), np.zeros(0)
-        robot_mu = np.full(m, cfg.wall_friction)
-        robot_mu[-1] = cfg.tip_friction
-        fric = self._fric
-        in_window, f_s, f_w, f_wl, f_t, f_ml = qk.window_friction(fric["s"], fric["wall"], fric["wl"], fric["t"], fric["ml"], sel,
-                                                                  self.ds, len(self.seg_len), a)
+            cos_u = sin_u = _NO_ANGLES
+        (overlap, n0, phi, seg_len, seg_rad, s_nodes, k_j, mw_j, sel, wa, wb, wpiece, w_vertex, w_radius, w_friction, pieces,
+         pc0, u, kaa, fh, travel, k_travel, robot_mu, in_window, f_s, f_w, f_wl, f_t, f_ml) = qk.window_setup(
+            nodes, theta0, a, self.phi, self.seg_len, self.seg_rad, self.nodes, self.length, self._k_all, self._mw_all,
+            *self._feature_boxes, walls.a, walls.b, walls.piece, walls.vertex, walls.radius, walls.friction, self._pc0,
+            self._u_all, cos_u, sin_u, self._k_piece, self._travel, self._k_travel, fric["s"], fric["wall"], fric["wl"],
+            fric["t"], fric["ml"], self.ds, cfg.barrier_gap_m + margin, cfg.barrier_gap_m + _PIECE_MARGIN_M,
+            cfg.wall_friction, cfg.tip_friction)
+        if overlap:  # (the features an overlap can involve are all within the margin)
+            return False
+        phi_ref = phi.copy()
         iters = 0
         for budget in (cfg.max_newton_iterations, _ESCALATION * cfg.max_newton_iterations):
             (status, it, res_m, res_f, e_s, e_w, e_wl, e_t, e_ml, acc_f, acc_m, tip, rows) = qk.solve_increment(
@@ -933,10 +909,8 @@ class QuasiStaticSim(GrowingTube):
         self._u_all[pieces] = u
         if len(self._piece_bodies):  # what the scene's pymunk pieces show after the step (_show_pieces)
             self._u_solved = self._u_all.copy()
-        keep = ~in_window
-        self._fric = {"s": np.concatenate([fric["s"][keep], e_s]), "wall": np.concatenate([fric["wall"][keep], sel[e_w]]),
-                      "wl": np.concatenate([fric["wl"][keep], e_wl]), "t": np.concatenate([fric["t"][keep], e_t]),
-                      "ml": np.concatenate([fric["ml"][keep], e_ml])}
+        merged = qk.merge_friction(fric["s"], fric["wall"], fric["wl"], fric["t"], fric["ml"], in_window, sel, e_s, e_w, e_wl, e_t, e_ml)
+        self._fric = dict(zip(("s", "wall", "wl", "t", "ml"), merged))
         n = len(self.phi)
         if len(self._seg_force) != n:
             self._seg_force = np.vstack([self._seg_force, np.zeros((n - len(self._seg_force), 2))])[:n]
