@@ -1968,3 +1968,26 @@ def merge_friction(fr_s, fr_wall, fr_wl, fr_t, fr_ml, in_window, sel, e_s, e_w, 
         o_ml[c] = e_ml[i]
         c += 1
     return o_s, o_w, o_wl, o_t, o_ml
+
+
+@nb.njit(cache=True, nogil=True)
+def segment_gap(nodes, k, rad_k, sel, w_a, w_b, w_piece, w_vert, w_rad, pc0, u):
+    """Smallest gap (m) between segment ``k`` of the chain ``nodes`` (radius ``rad_k``) and the wall
+    segments among the features ``sel`` (vertices skipped), each piece's where its displacement ``u``
+    puts it; ``inf`` if none."""
+    best = np.inf
+    for i in range(sel.shape[0]):
+        w = sel[i]
+        if w_vert[w]:
+            continue
+        ax, ay, bx, by = w_a[w, 0], w_a[w, 1], w_b[w, 0], w_b[w, 1]
+        p = w_piece[w]
+        if p >= 0:
+            c = math.cos(u[p, 2])
+            s = math.sin(u[p, 2])
+            ox = pc0[p, 0] + u[p, 0]
+            oy = pc0[p, 1] + u[p, 1]
+            ax, ay, bx, by = ox + (c * ax - s * ay), oy + (s * ax + c * ay), ox + (c * bx - s * by), oy + (s * bx + c * by)
+        d = _closest(nodes[k, 0], nodes[k, 1], nodes[k + 1, 0], nodes[k + 1, 1], ax, ay, bx, by)[6]
+        best = min(best, d - rad_k - w_rad[w])
+    return best

@@ -756,28 +756,12 @@ class QuasiStaticSim(GrowingTube):
         hit = np.all(bhi >= lo, axis=1) & np.all(blo <= hi, axis=1)
         return np.nonzero(hit)[0]
 
-    def _wall_world(self, w: int) -> tuple[np.ndarray, np.ndarray]:
-        a, b = self._walls.a[w], self._walls.b[w]
-        pc = self._walls.piece[w]
-        if pc < 0:
-            return a, b
-        u = self._u_all[pc]
-        c, s = math.cos(u[2]), math.sin(u[2])
-        o = self._pc0[pc] + u[:2]
-        return o + np.array([c * a[0] - s * a[1], s * a[0] + c * a[1]]), o + np.array([c * b[0] - s * b[1], s * b[0] + c * b[1]])
-
     def _segment_gap(self, k: int) -> float:
         """Smallest gap (m) between segment ``k`` and a wall within a segment's length of it."""
         nodes, _ = self._all_nodes()
         sel = self._query_walls(nodes[k:k + 2], self.seg_rad[k] + self.ds)
-        best = math.inf
-        for w in sel:
-            if self._walls.vertex[w]:
-                continue
-            a, b = self._wall_world(int(w))
-            d = qk._closest(nodes[k, 0], nodes[k, 1], nodes[k + 1, 0], nodes[k + 1, 1], a[0], a[1], b[0], b[1])[6]
-            best = min(best, d - self.seg_rad[k] - self._walls.radius[w])
-        return best
+        w = self._walls
+        return qk.segment_gap(nodes, k, float(self.seg_rad[k]), sel, w.a, w.b, w.piece, w.vertex, w.radius, self._pc0, self._u_all)
 
     # ---- the equilibrium solve ------------------------------------------------------------
     def _window_start(self) -> int:
