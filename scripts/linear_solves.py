@@ -5,7 +5,8 @@ of every ``--every``-th solve with at least ``--min-iterations`` Newton iteratio
 the solves cost most).  At each kept state it assembles the Newton system twice, as the dense default
 (``linear_solver="dense"``: the joints' block dense, the compliant wall pieces eliminated by a dense Schur
 complement) and as the O(m) solver (``"semiseparable"``: generators, the pieces' couplings as records), solves it
-from a Levenberg shift of zero and of one, and prints per state: the window's joints and pieces, how many coupled
+from a Levenberg shift of zero and of one, and prints per state: the window's joints, pieces and wall features (and
+the candidate contact pairs within a step's reach), how many coupled
 pieces touch one segment, two adjacent ones or more, whether the two solvers chose the same shift, how far their
 steps differ (relative to the step), and the time of each solve and assembly (best of ``--repeats`` calls).
 
@@ -95,7 +96,7 @@ def compare(args: tuple, repeats: int) -> dict:
         lo[p] = min(lo.get(p, k), k)
         hi[p] = max(hi.get(p, k), k)
     spans = [hi[p] - lo[p] for p in lo]
-    out = {"joints": m, "pieces": npc, "one_segment": spans.count(0), "two_segments": spans.count(1),
+    out = {"joints": m, "pieces": npc, "features": len(wa), "candidates": len(rows), "one_segment": spans.count(0), "two_segments": spans.count(1),
            "wider": sum(1 for s in spans if s > 1), "same_gradient": bool(np.array_equal(grad, grad2))}
     for mu0 in (0.0, 1.0):
         x_d, mu_d = qk._schur_solve(hess, hjp, hpp, -grad, m, npc, mu0)
@@ -149,10 +150,13 @@ def main(argv: list[str] | None = None) -> int:
         print(json.dumps({"env": args.env, "steps": steps, "states": rows}))
         return 0
     print(f"{args.env}: {len(rows)} states (solves with >= {min_it} Newton iterations in {steps} random-action steps)")
-    print("joints pieces  1-seg 2-seg wider  same shift  step diff  | solve from 0 (us)  solve from 1 (us)  assembly (us)")
-    print("                                  (0 / 1)                  |  dense  O(m)        dense  O(m)        dense  O(m)")
+    print("joints pieces features pairs  1-seg 2-seg wider  same shift  step diff  | solve from 0 (us)  solve from 1 (us)"
+          "  assembly (us)")
+    print("                                                 (0 / 1)                  |  dense  O(m)        dense  O(m)"
+          "        dense  O(m)")
     for r in rows:
-        print(f"{r['joints']:6d} {r['pieces']:6d}  {r['one_segment']:5d} {r['two_segments']:5d} {r['wider']:5d}"
+        print(f"{r['joints']:6d} {r['pieces']:6d} {r['features']:8d} {r['candidates']:5d}"
+              f"  {r['one_segment']:5d} {r['two_segments']:5d} {r['wider']:5d}"
               f"  {'yes' if r['same_shift_from_zero'] else 'NO':>4} / {'yes' if r['same_shift_from_one'] else 'NO':<4}"
               f"  {max(r['step_difference_from_zero'], r['step_difference_from_one']):9.1e}  |"
               f" {r['dense_us_from_zero']:6.1f} {r['semi_us_from_zero']:5.1f}      {r['dense_us_from_one']:6.1f}"
