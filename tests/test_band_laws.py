@@ -148,6 +148,10 @@ def test_the_fit_error_is_the_squared_distance_to_the_papers_bare_rates():
 @pytest.mark.parametrize("argv, says", [
     (["--candidates", "hinges,magic"], "--candidates = 'hinges,magic' is out of range: allowed a comma-separated subset of hinges"),
     (["--trials", "0"], "--trials = 0 is out of range: allowed [1, 100]"),
+    (["--sim", '{"linear_solver": "lu"}'], "--sim = '{\"linear_solver\": \"lu\"}' is not allowed: linear_solver = 'lu' is out of range"),
+    (["--sim", '{"engine": "dynamic"}'], "is not allowed: the study runs on the quasi-static engine: leave engine out"),
+    (["--sim", '{"nope": 1}'], "is not allowed: unknown SimConfig fields ['nope']"),
+    (["--sim", "[1]"], "--sim = '[1]' is not allowed: not a JSON object of SimConfig fields"),
 ])
 def test_the_study_script_refuses_bad_input_in_one_line(argv, says, tmp_path):
     import subprocess
@@ -188,3 +192,15 @@ def test_the_colon_criteria_want_the_bare_robot_stalled_and_the_banded_one_throu
     assert all(ok for _, ok in colon_criteria(paper))
     default = [{"reduction": 0.0, "passed": True, "peak_pressure_kpa": 2.0}, {"reduction": 0.1, "passed": True, "peak_pressure_kpa": 8.0}]
     assert [ok for _, ok in colon_criteria(default)] == [False, False]
+
+
+def test_the_studys_sim_fields_reach_every_trial_under_the_candidates_switches(tmp_path):
+    """``run_study(..., sim=...)`` (``band_mechanisms.py --sim``): the fields go into each trial's SimConfig, and a
+    candidate's own switch wins over them."""
+    from evertgym.experiments.mechanisms import CANDIDATES, _table
+
+    fold = next(c for c in CANDIDATES if c.key == "band_fold")
+    recs = _table(tmp_path / "s.sqlite", fold, 1.0, 1, (30.0,), (0.0, 0.1), False,
+                  {"linear_solver": "semiseparable", "band_fold": False})
+    sims = sorted((r.spec.scene["episode"]["sim"].get("band_fold", False), r.spec.scene["episode"]["sim"]["linear_solver"]) for r in recs)
+    assert sims == [(False, "semiseparable"), (True, "semiseparable")]  # bare: the band-only switch left out; banded: it wins

@@ -100,10 +100,10 @@ def _rates(records) -> dict[tuple[float, float], tuple[int, int]]:
     return {k: (v[0], v[1]) for k, v in out.items()}
 
 
-def _table(store: Path, cand: Candidate, casing: float, trials: int, radii, reductions, progress: bool):
+def _table(store: Path, cand: Candidate, casing: float, trials: int, radii, reductions, progress: bool, base: dict | None = None):
     specs = []
     for red in reductions:
-        sim = {"engine": "quasistatic", **{k: v for k, v in cand.sim.items() if red > 0 or k not in BAND_ONLY}}
+        sim = {"engine": "quasistatic", **(base or {}), **{k: v for k, v in cand.sim.items() if red > 0 or k not in BAND_ONLY}}
         specs += ubend_specs(trials, radii=radii, reductions=(red,), sim=sim, scene_params={"wall_friction": round(casing, 6)})
     return _run(specs, store, "process", None, progress)
 
@@ -114,12 +114,13 @@ def bare_error(rates: dict[tuple[float, float], tuple[int, int]]) -> float:
 
 
 def fit_casing(store: Path, cand: Candidate, trials: int = 12, grid=FIT_GRID, progress: bool = False,
-               log: Callable[[str], None] = print) -> dict:
+               log: Callable[[str], None] = print, base: dict | None = None) -> dict:
     """The casing factor on ``grid`` whose no-band rows are nearest the paper's (least squares);
-    ties go to the factor nearest the family's default.  Returns the fit and every grid point."""
+    ties go to the factor nearest the family's default.  Returns the fit and every grid point.
+    ``base``: SimConfig fields under the candidate's switches (its own win)."""
     points = []
     for f in grid:
-        rates = _rates(_table(store, cand, f, trials, FIT_RADII_MM, (0.0,), progress))
+        rates = _rates(_table(store, cand, f, trials, FIT_RADII_MM, (0.0,), progress, base))
         err = bare_error(rates)
         points.append({"casing": f, "error": round(err, 4), "bare": {str(r): rates[(0.0, r)][0] for r in FIT_RADII_MM}})
         log(f"  fit {cand.key}: casing {f:g}: error {err:.3f}  bare " + " ".join(f"{r:g}:{rates[(0.0, r)][0]}" for r in FIT_RADII_MM))
@@ -163,9 +164,12 @@ def largest_move(a: dict, b: dict) -> int:
 
 
 def run_study(store: str | Path, keys: list[str] | None = None, trials: int = 12, grid=FIT_GRID, progress: bool = False,
-              log: Callable[[str], None] = print) -> dict:
+              log: Callable[[str], None] = print, sim: dict | None = None) -> dict:
     """Run (or resume) the study for the candidates ``keys`` (all by default); returns per candidate
-    its fit, its table at the fit and at +-10%, the largest cell move, the criteria and the jams."""
+    its fit, its table at the fit and at +-10%, the largest cell move, the criteria and the jams.
+    ``sim``: SimConfig fields under every candidate's switches (e.g. the linear solver), in every
+    trial, the colon's included."""
+    base = dict(sim or {})
     store = Path(store)
     store.parent.mkdir(parents=True, exist_ok=True)
     out = []
@@ -173,11 +177,11 @@ def run_study(store: str | Path, keys: list[str] | None = None, trials: int = 12
         if keys and cand.key not in keys:
             continue
         log(f"{cand.label}")
-        fit = fit_casing(store, cand, trials, cand.grid or grid, progress, log)
+        fit = fit_casing(store, cand, trials, cand.grid or grid, progress, log, base)
         tables = {}
         jams = []
         for tag, factor in (("fit", 1.0), ("-10%", 1.0 - SENSITIVITY), ("+10%", 1.0 + SENSITIVITY)):
-            recs = _table(store, cand, fit["casing"] * factor, trials, UBEND_RADII_MM, UBEND_REDUCTIONS, progress)
+            recs = _table(store, cand, fit["casing"] * factor, trials, UBEND_RADII_MM, UBEND_REDUCTIONS, progress, base)
             tables[tag] = _rates(recs)
             if tag == "fit":
                 jams = ubend_jam_rows(recs)
@@ -185,26 +189,28 @@ def run_study(store: str | Path, keys: list[str] | None = None, trials: int = 12
         move = {tag: largest_move(tables["fit"], tables[tag]) for tag in ("-10%", "+10%")}
         probes = []
         if cand.sim.get("fold_pinch_per_rad", 0.0) > 0:  # does the body ever fold? (trial 0; at the fit and at 1.5, where bare passes)
-            probes = [{"casing": f, **fold_angles(cand, f, r, red)} for f in (fit["casing"], 1.5) for r in (30.0, 20.0) for red in (0.0, 0.1)]
+            probes = [{"casing": f, **fold_angles(cand, f, r, red, base=base)} for f in (fit["casing"], 1.5) for r in (30.0, 20.0)
+                      for red in (0.0, 0.1)]
         colon = [{k: r[k] for k in ("reduction", "passed", "stall_position_mm", "peak_pressure_kpa")}
-                 for r in reproduce_colon(store, backend="process", sim={"engine": "quasistatic", **cand.sim})["rows"]]
+                 for r in reproduce_colon(store, backend="process", sim={"engine": "quasistatic", **base, **cand.sim})["rows"]]
         log("  colon done")
         out.append({"key": cand.key, "colon": colon, "label": cand.label, "sim": cand.sim, "source": cand.source, "fit": fit,
                     "tables": {tag: {f"{k[0]:.1f}/{k[1]:g}": list(v) for k, v in t.items()} for tag, t in tables.items()},
                     "largest_move": move, "criteria": criteria(tables["fit"]) + colon_criteria(colon),
                     "jams": jams, "fold_probes": probes})
-    return {"candidates": out, "trials": trials}
+    return {"candidates": out, "trials": trials, "sim": base}
 
 
-def fold_angles(cand: Candidate, casing: float, radius_mm: float, reduction: float, seed: int = 0) -> dict:
+def fold_angles(cand: Candidate, casing: float, radius_mm: float, reduction: float, seed: int = 0, base: dict | None = None) -> dict:
     """Over one trial of the table (its ``seed``): the largest joint angle (deg), the largest
     excess fold angle ``Phi`` (deg, :func:`~evertgym.sim.band_laws.fold_excess`) and the turn a
-    segment makes before its inner side folds, ``ds / r`` (deg): whether the body ever folds."""
+    segment makes before its inner side folds, ``ds / r`` (deg): whether the body ever folds.
+    ``base``: SimConfig fields under the candidate's switches."""
     from evertgym.agents.evaluate import run_episode
     from evertgym.agents.policies import make_policy
     from evertgym.experiments.trial import GIVE_UP_S, make_trial_env
 
-    sim = {"engine": "quasistatic", **cand.sim}
+    sim = {"engine": "quasistatic", **(base or {}), **cand.sim}
     spec = ubend_specs(seed + 1, radii=(radius_mm,), reductions=(reduction,), sim=sim, scene_params={"wall_friction": casing})[seed]
     env = make_trial_env(spec)
     peak = {"joint": 0.0, "excess": 0.0}
