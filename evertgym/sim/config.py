@@ -80,11 +80,12 @@ class SimConfig:
         ``max_newton_iterations`` and ``pressure_increment_fraction`` (the pressure change, as a
         fraction of the last solve's pressure and at least of 1 kPa, after which the body is
         re-solved while it touches a wall or is growing), ``linear_solver`` (how a Newton step's linear
-        system is solved where no compliant wall piece is an unknown: ``"dense"``, a Cholesky
-        factorisation of the joints' Hessian, O(m^3); or ``"semiseparable"``, the same system in
-        O(m), the Hessian being diagonal plus semiseparable of rank 3 in joint coordinates; the two
-        agree to rounding, not bit for bit).  A field that means nothing to the chosen engine is
-        rejected.
+        system is solved: ``"semiseparable"``, the default since 2026-12-05, in O(m + pieces), the
+        joints' Hessian being diagonal plus semiseparable of rank 3 in joint coordinates and the
+        compliant wall pieces eliminated into it; or ``"dense"``, the default before, a Cholesky
+        factorisation of the joints' Hessian and a dense Schur complement for the pieces, O(m^3); the
+        two agree to rounding, not bit for bit: a number made before the switch is regenerated
+        exactly with ``"dense"``).  A field that means nothing to the chosen engine is rejected.
     Band-mechanism laws (quasi-static engine; :mod:`evertgym.sim.band_laws`, issue 26)
         ``band_fold``: an everted band folds axially (goes slack) when the tip's push and the tail's
         tension exceed ``p pi r_b^2``; growth then stops.  ``fold_pinch_per_rad``: the tail's losses
@@ -133,7 +134,7 @@ class SimConfig:
     friction_lag_iterations: int = 1
     max_newton_iterations: int = 60
     pressure_increment_fraction: float = 0.05
-    linear_solver: str = "dense"
+    linear_solver: str = "semiseparable"
     band_fold: bool = False
     fold_pinch_per_rad: float = 0.0
     band_eversion_threshold: bool = True
