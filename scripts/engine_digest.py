@@ -9,6 +9,9 @@ from its config (``scripts/compare_runs.py``).
     python scripts/engine_digest.py                      # prints one line per (env, engine)
     python scripts/engine_digest.py --json > before.json # ... change ...
     python scripts/engine_digest.py --against before.json  # exit 1 if any digest differs
+    python scripts/engine_digest.py --sim '{"linear_solver": "dense"}' --against before.json
+                                                          # quasi-static runs with SimConfig fields (e.g. the
+                                                          # solver a digest saved before 2026-12-05 was made with)
 """
 
 from __future__ import annotations
@@ -48,14 +51,15 @@ def _exact(value):
     return str(value)
 
 
-def digest(env_id: str, engine: str, steps: int) -> str:
-    """SHA-256 of ``steps`` random-action steps of ``env_id`` on ``engine`` (see the module's docstring)."""
+def digest(env_id: str, engine: str, steps: int, sim: dict | None = None) -> str:
+    """SHA-256 of ``steps`` random-action steps of ``env_id`` on ``engine`` (see the module's docstring);
+    ``sim``: further SimConfig fields."""
     import gymnasium as gym
     import numpy as np
 
     import evertgym  # noqa: F401  (registers the envs)
 
-    env = gym.make(env_id, sim_config={"engine": engine})
+    env = gym.make(env_id, sim_config={**(sim or {}), "engine": engine})
     env.reset(seed=0)
     rng = np.random.default_rng(0)
     h = hashlib.sha256()
@@ -78,7 +82,24 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--json", action="store_true", help="print one JSON object {'env engine steps': digest}")
     ap.add_argument("--against", metavar="FILE", help="a --json output to compare with; exit 1 if any digest differs")
+    ap.add_argument("--sim", default="", help="SimConfig fields as JSON for the quasi-static runs (the dynamic ones run "
+                    "their defaults), e.g. '{\"linear_solver\": \"dense\"}'")
     args = ap.parse_args(argv)
+    sim: dict = {}
+    if args.sim:
+        from evertgym.sim.config import SimConfig
+
+        try:
+            sim = json.loads(args.sim)
+            if not isinstance(sim, dict) or "engine" in sim:
+                raise ValueError("expected a JSON object of quasi-static SimConfig fields, engine left out")
+            unknown = sorted(set(sim) - set(SimConfig.__dataclass_fields__))
+            if unknown:
+                raise ValueError(f"unknown SimConfig fields {unknown}")
+            SimConfig(engine="quasistatic", **sim)
+        except (ValueError, TypeError) as e:
+            print(f"--sim = {args.sim!r} is not allowed: {e}", file=sys.stderr)
+            return 2
     before = None
     if args.against:
         try:
@@ -90,7 +111,7 @@ def main(argv: list[str] | None = None) -> int:
     out, same = {}, True
     for env_id, engine, steps in RUNS:
         key = f"{env_id} {engine} {steps}"
-        out[key] = digest(env_id, engine, steps)
+        out[key] = digest(env_id, engine, steps, sim if engine == "quasistatic" else None)
         if before is not None:
             ok = before.get(key) == out[key]
             same &= ok

@@ -82,3 +82,17 @@ def test_two_stores_are_compared_trial_by_trial(tmp_path, capsys):
     assert len(err) == 1 and "holds no trials of group 'nope'" in err[0]
     assert compare.main([str(tmp_path / "missing.sqlite"), str(tmp_path / "b.sqlite")]) == 2
     assert "is not a file" in capsys.readouterr().err
+
+
+def test_sim_fields_reach_the_quasistatic_runs_and_bad_ones_get_one_line(capsys):
+    """``--sim``: the default is the O(m) solver (its digest equals ``linear_solver="semiseparable"``'s); the dense
+    solver's answers differ from it in the last bits once the body touches the bend (40 U-bend steps); a field that
+    is unknown, foreign to the quasi-static engine or ``engine`` itself is refused in one line, before any run."""
+    default = digest_script.digest("evertgym/UBend-v0", "quasistatic", 40)
+    assert default == digest_script.digest("evertgym/UBend-v0", "quasistatic", 40, {"linear_solver": "semiseparable"})
+    assert default != digest_script.digest("evertgym/UBend-v0", "quasistatic", 40, {"linear_solver": "dense"})
+    for bad, says in (('{"nope": 1}', "unknown SimConfig fields ['nope']"), ('{"engine": "dynamic"}', "engine left out"),
+                      ('{"mass_ratio": 0.1}', "means nothing to engine 'quasistatic'")):
+        assert digest_script.main(["--sim", bad]) == 2
+        err = capsys.readouterr().err
+        assert says in err and err.strip().count("\n") == 0
