@@ -1,8 +1,9 @@
 """The two linear solvers of a quasi-static Newton step side by side, on the systems an env really makes.
 
-Plays ``--steps`` random-action steps (seed 0) of the env on the quasi-static default and keeps the starting state
+Plays ``--steps`` random-action steps (seed 0) of the env on the quasi-static engine's dense solver (the default
+when docs/quasistatic.md's figures of this script were made, so that they regenerate) and keeps the starting state
 of every ``--every``-th solve with at least ``--min-iterations`` Newton iterations (the contact increments, where
-the solves cost most).  At each kept state it assembles the Newton system twice, as the dense default
+the solves cost most).  At each kept state it assembles the Newton system twice, as the dense solver
 (``linear_solver="dense"``: the joints' block dense, the compliant wall pieces eliminated by a dense Schur
 complement) and as the O(m) solver (``"semiseparable"``: generators, the pieces' couplings as records), solves it
 from a Levenberg shift of zero and of one, and prints per state: the window's joints, pieces and wall features (and
@@ -39,7 +40,7 @@ def capture(env_id: str, steps: int, min_iterations: int, every: int, limit: int
     import evertgym  # noqa: F401  (registers the envs)
     from evertgym.sim import quasistatic as qs
 
-    env = gym.make(env_id, sim_config={"engine": "quasistatic"})
+    env = gym.make(env_id, sim_config={"engine": "quasistatic", "linear_solver": "dense"})
     env.reset(seed=0)
     inner = qs.qk.solve_increment
     kept: list[tuple] = []

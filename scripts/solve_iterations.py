@@ -12,21 +12,23 @@ share of the run's wall time spent outside the compiled solve (the engine's and 
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import time
 
 _BUCKETS = ((0, 1), (1, 8), (8, 13), (13, 20), (20, 40), (40, 80), (80, 10**9))
 
 
-def measure(env_id: str, steps: int) -> dict:
-    """Per-solve iterations and compiled time of ``steps`` random-action steps of ``env_id``."""
+def measure(env_id: str, steps: int, sim: dict | None = None) -> dict:
+    """Per-solve iterations and compiled time of ``steps`` random-action steps of ``env_id`` (``sim``: further
+    quasi-static SimConfig fields)."""
     import gymnasium as gym
     import numpy as np
 
     import evertgym  # noqa: F401  (registers the envs)
     from evertgym.sim import quasistatic as qs
 
-    env = gym.make(env_id, sim_config={"engine": "quasistatic"})
+    env = gym.make(env_id, sim_config={**(sim or {}), "engine": "quasistatic"})
     env.reset(seed=0)
     env.step(np.zeros(env.action_space.shape, np.float32))  # compile (or load) the kernel outside the timing
     env.reset(seed=0)
@@ -70,7 +72,24 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--env", action="append", help="env id (repeatable; default UBend-v0 and Colon-v0)")
     ap.add_argument("--steps", type=int, default=0, help="random-action steps per env (default 300 for UBend-v0, 150 otherwise)")
+    ap.add_argument("--sim", default="", help="quasi-static SimConfig fields as JSON, e.g. '{\"linear_solver\": \"dense\"}' "
+                    "(the solver the docs' tables of 2026-12-05 were made with)")
     args = ap.parse_args(argv)
+    sim: dict = {}
+    if args.sim:
+        from evertgym.sim.config import SimConfig
+
+        try:
+            sim = json.loads(args.sim)
+            if not isinstance(sim, dict) or "engine" in sim:
+                raise ValueError("expected a JSON object of quasi-static SimConfig fields, engine left out")
+            unknown = sorted(set(sim) - set(SimConfig.__dataclass_fields__))
+            if unknown:
+                raise ValueError(f"unknown SimConfig fields {unknown}")
+            SimConfig(engine="quasistatic", **sim)
+        except (ValueError, TypeError) as e:
+            print(f"--sim = {args.sim!r} is not allowed: {e}", file=sys.stderr)
+            return 2
     if args.steps < 0:
         print(f"--steps = {args.steps} is out of range: allowed 1 or more (0: the default)", file=sys.stderr)
         return 2
@@ -85,7 +104,7 @@ def main(argv: list[str] | None = None) -> int:
             return 2
     for env_id in args.env or ["evertgym/UBend-v0", "evertgym/Colon-v0"]:
         steps = args.steps or (300 if "UBend" in env_id else 150)
-        r = measure(env_id, steps)
+        r = measure(env_id, steps, sim)
         print(f"{env_id}: {steps} steps, {r['steps_per_s']:.0f} steps/s, {r['solves']} solves, {r['iterations_per_solve']:.2f} Newton "
               f"iterations per solve, {r['joints_per_solve']:.1f} joints per window; the compiled solve is "
               f"{100 * r['compiled_share']:.0f}% of the wall time")

@@ -48,11 +48,16 @@ def test_bad_input_gets_one_line(tmp_path, capsys):
     assert iterations_script.main(["--env", "evertgym/Nope-v0"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("--env = 'evertgym/Nope-v0' is not an env id")
+    assert iterations_script.main(["--sim", '{"linear_solver": "lu"}']) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "linear_solver = 'lu' is out of range" in err[0]
 
 
 def test_solves_are_grouped_by_their_iterations():
     r = iterations_script.measure("evertgym/UBend-v0", 20)
     assert r["solves"] == sum(b["solves"] for b in r["buckets"]) > 0
+    dense = iterations_script.measure("evertgym/UBend-v0", 20, {"linear_solver": "dense"})
+    assert dense["solves"] == r["solves"]  # the same trajectory for 20 steps (the solvers agree to rounding)
     assert abs(sum(b["time_share"] for b in r["buckets"]) - 1.0) < 1e-9
     assert 0.0 < r["compiled_share"] < 1.0
 
