@@ -12,7 +12,6 @@ share of the run's wall time spent outside the compiled solve (the engine's and 
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 
@@ -77,16 +76,10 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     sim: dict = {}
     if args.sim:
-        from evertgym.sim.config import SimConfig
+        from evertgym.sim.config import quasistatic_overrides
 
         try:
-            sim = json.loads(args.sim)
-            if not isinstance(sim, dict) or "engine" in sim:
-                raise ValueError("expected a JSON object of quasi-static SimConfig fields, engine left out")
-            unknown = sorted(set(sim) - set(SimConfig.__dataclass_fields__))
-            if unknown:
-                raise ValueError(f"unknown SimConfig fields {unknown}")
-            SimConfig(engine="quasistatic", **sim)
+            sim = quasistatic_overrides(args.sim)
         except (ValueError, TypeError) as e:
             print(f"--sim = {args.sim!r} is not allowed: {e}", file=sys.stderr)
             return 2

@@ -156,24 +156,7 @@ def test_the_semiseparable_solve_is_the_dense_one_to_rounding():
     shifted = 0
     for trial in range(200):
         m = int(rng.integers(1, 90))
-        nodes = np.cumsum(rng.normal(scale=0.0075, size=(m, 2)), axis=0)
-        gen = np.empty((m, 7))
-        gen[:, 0] = rng.uniform(0.01, 1.0, m)
-        gen[:, 1] = 1.0
-        gen[:, 2:4] = nodes
-        # p_j from suffix sums of PSD 3 x 3 contact terms, minus a compressive part in some trials
-        w = np.stack([np.ones(m), -nodes[:, 0], nodes[:, 1]], axis=1)
-        s = np.zeros((m, 3, 3))
-        for k in rng.choice(m, size=min(m, 3), replace=False):
-            v = rng.normal(size=3)
-            s[k] += rng.uniform(0, 50) * np.outer(v, v)
-        s = np.cumsum(s[::-1], axis=0)[::-1]
-        cj = np.einsum("jrc,jc->jr", s, w)
-        c3 = -rng.uniform(0, 2.0, m) * (trial % 2)
-        vf = rng.normal(scale=0.1, size=(m, 2)) * (trial % 3 == 0)
-        gen[:, 4] = cj[:, 0] + c3
-        gen[:, 5] = vf[:, 0] - cj[:, 1]
-        gen[:, 6] = cj[:, 2] + vf[:, 1]
+        gen = _random_generators(rng, m, compress=trial % 2 == 1, vertex_terms=trial % 3 == 0)
         full = np.triu(gen[:, 1:4] @ gen[:, 4:7].T)
         full = full + np.triu(full, 1).T + np.diag(gen[:, 0])
         rhs = rng.normal(size=m)
@@ -185,8 +168,9 @@ def test_the_semiseparable_solve_is_the_dense_one_to_rounding():
     assert shifted > 10  # the ladder was exercised
 
 
-def _random_generators(rng: np.random.Generator, m: int, compress: bool) -> np.ndarray:
-    """Generators ``[d, a, p]`` of a joints' block (as :func:`test_the_semiseparable_solve_is_the_dense_one_to_rounding`)."""
+def _random_generators(rng: np.random.Generator, m: int, compress: bool, vertex_terms: bool = False) -> np.ndarray:
+    """Generators ``[d, a, p]`` of a random joints' block: ``p_j`` from suffix sums of PSD 3 x 3 contact terms,
+    minus a compressive part if ``compress``, plus a wall vertex's ``vf`` terms if ``vertex_terms``."""
     nodes = np.cumsum(rng.normal(scale=0.0075, size=(m, 2)), axis=0)
     gen = np.empty((m, 7))
     gen[:, 0] = rng.uniform(0.01, 1.0, m)
@@ -200,9 +184,10 @@ def _random_generators(rng: np.random.Generator, m: int, compress: bool) -> np.n
     s = np.cumsum(s[::-1], axis=0)[::-1]
     cj = np.einsum("jrc,jc->jr", s, w)
     c3 = -rng.uniform(0, 2.0, m) * compress
+    vf = rng.normal(scale=0.1, size=(m, 2)) * vertex_terms
     gen[:, 4] = cj[:, 0] + c3
-    gen[:, 5] = -cj[:, 1]
-    gen[:, 6] = cj[:, 2]
+    gen[:, 5] = vf[:, 0] - cj[:, 1]
+    gen[:, 6] = cj[:, 2] + vf[:, 1]
     return gen
 
 

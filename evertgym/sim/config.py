@@ -220,3 +220,19 @@ QUASISTATIC_ONLY = ("growth_increment_m", "solver_tolerance", "barrier_gap_m", "
                     "max_newton_iterations", "pressure_increment_fraction", "linear_solver", "band_fold", "fold_pinch_per_rad",
                     "band_eversion_threshold", "flattening")
 _DEFAULTS = {f.name: f.default for f in fields(SimConfig)}
+
+
+def quasistatic_overrides(text: str) -> dict:
+    """SimConfig fields for the quasi-static engine from JSON text (a script's ``--sim``), checked before any
+    work: a JSON object of known fields, ``engine`` left out, valid together.  Raises ValueError naming what
+    is wrong."""
+    import json
+
+    sim = json.loads(text)
+    if not isinstance(sim, dict) or "engine" in sim:
+        raise ValueError("expected a JSON object of quasi-static SimConfig fields, engine left out")
+    unknown = sorted(set(sim) - set(_DEFAULTS))
+    if unknown:
+        raise ValueError(f"unknown SimConfig fields {unknown}")
+    SimConfig(engine="quasistatic", **sim)
+    return sim

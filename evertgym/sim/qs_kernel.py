@@ -894,14 +894,19 @@ def _semi_substitute(gen, q, low, rhs):
 
 
 @nb.njit(cache=True, nogil=True)
-def _c3(c, d, e, out):
-    """``out = c d e^T`` for 3 x 3 matrices."""
+def _mul3(a, b, out):
+    """``out = a b`` for 3 x 3 matrices."""
     for i in range(3):
-        t0 = c[i, 0] * d[0, 0] + c[i, 1] * d[1, 0] + c[i, 2] * d[2, 0]
-        t1 = c[i, 0] * d[0, 1] + c[i, 1] * d[1, 1] + c[i, 2] * d[2, 1]
-        t2 = c[i, 0] * d[0, 2] + c[i, 1] * d[1, 2] + c[i, 2] * d[2, 2]
         for j in range(3):
-            out[i, j] = t0 * e[j, 0] + t1 * e[j, 1] + t2 * e[j, 2]
+            out[i, j] = a[i, 0] * b[0, j] + a[i, 1] * b[1, j] + a[i, 2] * b[2, j]
+
+
+@nb.njit(cache=True, nogil=True)
+def _abt3(a, b, out):
+    """``out = a b^T`` for 3 x 3 matrices."""
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = a[i, 0] * b[j, 0] + a[i, 1] * b[j, 1] + a[i, 2] * b[j, 2]
 
 
 @nb.njit(cache=True, nogil=True)
@@ -973,19 +978,11 @@ def _semi_schur_solve(gen, rec, hpp, rhs, m, npc, mu0):
     vsum = np.zeros((m, 3))  # C D^-1 rhs_p likewise
     r = np.empty(m)
     cd = np.empty((3, 3))
+    chd = np.empty((3, 3))
     t33 = np.empty((3, 3))
     mu = mu0
     for _ in range(40):
-        ok = True
-        for p in range(npc):
-            for i in range(3):
-                for j in range(3):
-                    d[i, j] = hpp[p, i, j]
-                d[i, i] += mu
-            if not _inv3_spd(d, dinv[p]):
-                ok = False
-                break
-        if ok:
+        if _pieces_inverse(hpp, mu, d, dinv):
             msum[:, :, :] = 0.0
             mhi[:, :] = 0.0
             vsum[:, :] = 0.0
@@ -998,12 +995,10 @@ def _semi_schur_solve(gen, rec, hpp, rhs, m, npc, mu0):
                 kl = klo[p]
                 c = ctot[p]
                 dv = dinv[p]
-                _c3(c, dv, c, t33)
+                _mul3(c, dv, cd)
+                _abt3(cd, c, t33)
                 o = m + 3 * p
                 for i in range(3):
-                    cd[i, 0] = c[i, 0] * dv[0, 0] + c[i, 1] * dv[1, 0] + c[i, 2] * dv[2, 0]
-                    cd[i, 1] = c[i, 0] * dv[0, 1] + c[i, 1] * dv[1, 1] + c[i, 2] * dv[2, 1]
-                    cd[i, 2] = c[i, 0] * dv[0, 2] + c[i, 1] * dv[1, 2] + c[i, 2] * dv[2, 2]
                     vsum[kl, i] += cd[i, 0] * rhs[o] + cd[i, 1] * rhs[o + 1] + cd[i, 2] * rhs[o + 2]
                     for j in range(3):
                         msum[kl, i, j] += t33[i, j]
@@ -1011,7 +1006,7 @@ def _semi_schur_solve(gen, rec, hpp, rhs, m, npc, mu0):
                 if kh > kl:  # on two segments: the second's row against the joints before it, and its diagonal
                     a0, a1, a2 = 1.0, gen[kh, 2], gen[kh, 3]
                     ch = chi[p]
-                    _c3(c, dv, ch, t33)
+                    _abt3(cd, ch, t33)
                     h0 = t33[0, 0] * a0 + t33[0, 1] * a1 + t33[0, 2] * a2
                     h1 = t33[1, 0] * a0 + t33[1, 1] * a1 + t33[1, 2] * a2
                     h2 = t33[2, 0] * a0 + t33[2, 1] * a1 + t33[2, 2] * a2
@@ -1019,7 +1014,8 @@ def _semi_schur_solve(gen, rec, hpp, rhs, m, npc, mu0):
                     mhi[kh, 1] += h1
                     mhi[kh, 2] += h2
                     # its diagonal is -a^T C_hi D^-1 C_hi^T a, of which p gives -a^T C D^-1 C_hi^T a: d takes the rest
-                    _c3(ch, dv, ch, t33)
+                    _mul3(ch, dv, chd)
+                    _abt3(chd, ch, t33)
                     gen2[kh, 0] += (a0 * h0 + a1 * h1 + a2 * h2) - (
                         a0 * (t33[0, 0] * a0 + t33[0, 1] * a1 + t33[0, 2] * a2)
                         + a1 * (t33[1, 0] * a0 + t33[1, 1] * a1 + t33[1, 2] * a2)
@@ -1138,6 +1134,20 @@ def _inv3_spd(d, out):
 
 
 @nb.njit(cache=True, nogil=True)
+def _pieces_inverse(hpp, mu, d, dinv):
+    """Each wall piece's own block shifted by ``mu``, inverted into ``dinv`` (``d``: a 3 x 3 scratch);
+    whether every one is positive definite (stops at the first that is not)."""
+    for p in range(hpp.shape[0]):
+        for i in range(3):
+            for j in range(3):
+                d[i, j] = hpp[p, i, j]
+            d[i, i] += mu
+        if not _inv3_spd(d, dinv[p]):
+            return False
+    return True
+
+
+@nb.njit(cache=True, nogil=True)
 def _diag_max(hess, hpp):
     """Largest absolute diagonal term of the Hessian (its joint block ``hess``, its pieces' ``hpp``)."""
     out = 0.0
@@ -1186,16 +1196,7 @@ def _schur_solve(hess, hjp, hpp, rhs, m, npc, mu0):
     rc = np.empty(3 * nc)
     dinv = np.empty((npc, 3, 3))
     for _ in range(40):
-        ok = True
-        for p in range(npc):
-            for i in range(3):
-                for j in range(3):
-                    d[i, j] = hpp[p, i, j]
-                d[i, i] += mu
-            if not _inv3_spd(d, dinv[p]):
-                ok = False
-                break
-        if ok:
+        if _pieces_inverse(hpp, mu, d, dinv):
             # Schur complement S = H_jj + mu I - B D^-1 B^T, r = rhs_j - B D^-1 rhs_p
             for c in range(nc):
                 p = cols[c]
