@@ -403,7 +403,7 @@ class QuasiStaticSim(GrowingTube):
     def _turning(self) -> float:
         """Total turning of the body, ``sum |phi|`` (rad): the bend loss's angle."""
         if self._turn is None:
-            self._turn = float(np.sum(np.abs(self.phi)))
+            self._turn = float(np.add.reduce(np.abs(self.phi)))  # np.sum's own reduction, without its dispatch
             self._excess = None
             self._band_turn = None
         return self._turn
@@ -721,7 +721,8 @@ class QuasiStaticSim(GrowingTube):
         """Outputs and events after an accepted state."""
         if self.cfg.flattening > 0:
             self._flatten()
-        mag = float(math.hypot(*self.tip_contact))
+        tc = self.tip_contact
+        mag = float(math.hypot(tc[0], tc[1]))
         self._tip_force_norm = mag
         self.max_contact_force = max(self.max_contact_force, mag)
         touching = (len(self.seg_len) - 1) in self._contact_segs

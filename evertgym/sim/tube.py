@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 
+import numba as nb
 import numpy as np
 
 from evertgym.design import TubeDesign
@@ -82,9 +83,8 @@ class GrowingTube:
         """Collision radius of material [a, b]: its envelope (largest radius), so no part of
         the tube can sink into a wall; a segment wholly inside a band strip gets the band's."""
         s, r = self._radius_fine  # s increasing: the material in [a, b] is one run of it
-        i0 = int(np.searchsorted(s, a - 1e-12, side="left"))
-        i1 = int(np.searchsorted(s, b + 1e-12, side="right"))
-        return float(np.max(r[i0:i1])) if i1 > i0 else float(np.interp(0.5 * (a + b), s, r))
+        top = _envelope(s, r, a, b)
+        return top if top >= 0.0 else float(np.interp(0.5 * (a + b), s, r))
 
     def _near_band(self, s: float) -> bool:
         return any(lo <= s <= hi for lo, hi in self._band_zones)
@@ -164,3 +164,14 @@ def check_buildable(design: TubeDesign, cfg: SimConfig, scene=None) -> None:
     if lumen is not None and len(lumen) and design.diameter_m > float(np.min(lumen)) + 1e-9:
         raise ValueError(f"diameter_m = {design.diameter_m:g} is out of range: allowed up to the scene's narrowest "
                          f"lumen, {float(np.min(lumen)):g} m (the robot must fit the channel)")
+
+
+@nb.njit(cache=True, nogil=True)
+def _envelope(s: np.ndarray, r: np.ndarray, a: float, b: float) -> float:
+    """Largest radius ``r`` (m) over the fine samples ``s`` (m, increasing) in ``[a, b]`` (1e-12 m of slack at each
+    end), or -1 when none lies there (compiled: it runs at every growth increment)."""
+    i0 = np.searchsorted(s, a - 1e-12, side="left")
+    i1 = np.searchsorted(s, b + 1e-12, side="right")
+    if i1 <= i0:
+        return -1.0
+    return r[i0:i1].max()
