@@ -384,10 +384,44 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
 
 
 def _physics(sim: dict | None) -> str:
-    """Which physics (engine, band-mechanism laws, what was fitted) a result was made with (issue 26)."""
-    from evertgym.experiments.mechanisms import physics_note
+    """Which physics (engine, the adopted bend model and what it was fitted on) a result was made with."""
+    from evertgym.experiments.bend_model import physics_note
 
     return physics_note(sim)
+
+
+def cmd_bands_fit(args: argparse.Namespace) -> int:
+    from evertgym.experiments.bend_model import CANDIDATES, candidate, likelihood_table, run_study, write_model
+    from evertgym.limits import check_workers
+    from evertgym.sim.variation import BEND_MODEL_PATH
+
+    check_workers(args.workers, args.force_workers, "--workers")
+    names = [c.name for c in CANDIDATES] if args.candidates is None else [n.strip() for n in args.candidates.split(",")]
+    for name in names:
+        try:
+            candidate(name)
+        except ValueError as e:
+            raise CLIError(f"--candidates: {e}") from None
+    if len(set(names)) != len(names):
+        raise CLIError(f"--candidates = {args.candidates!r} names a candidate twice")
+    study = run_study(names, args.db, args.summary, workers=args.workers, progress=not args.json)
+    best = max(study["candidates"], key=lambda c: c["loglik_prediction"])
+    beats = best["loglik_prediction"] > study["previous"]["loglik_prediction"]
+    table = likelihood_table(study)
+    if args.out:
+        Path(args.out).write_text(table)
+    adopted = None
+    if args.adopt and beats:
+        write_model(best, BEND_MODEL_PATH)
+        adopted = best["candidate"]
+    if args.json:
+        print(dumps({**study, "best": best["candidate"], "beats_previous": beats, "adopted": adopted}, default=float))
+        return 0
+    print(table, end="")
+    print(f"best by prediction log-likelihood: ({best['candidate']}) {best['label']}: {best['loglik_prediction']:.2f} against "
+          f"{study['previous']['loglik_prediction']:.2f} for the engine before the bend model"
+          + (f"; adopted, written to {BEND_MODEL_PATH}" if adopted else ("" if beats else "; it does not beat it: nothing adopted")))
+    return 0
 
 
 def cmd_reproduce_ubend(args: argparse.Namespace) -> int:
@@ -779,6 +813,21 @@ def build_parser() -> argparse.ArgumentParser:
     ru.add_argument("--radii", default=None, help="inner radii (mm) to run, comma-separated (default: the paper's 40..20 mm)")
     ru.add_argument("--reductions", default=None, help="band reductions to run, comma-separated, 0 = no bands (default: 0,0.1,0.2,0.3)")
     ru.set_defaults(func=cmd_reproduce_ubend)
+
+    bd = _sub(sub, "bands", "the calibrated bend model: fit its candidates and rank them by likelihood")
+    bd_sub = bd.add_subparsers(dest="target", required=True)
+    bf = _sub(bd_sub, "fit", "fit every candidate bend model on the paper's calibration cells and rank them by the "
+                             "binomial log-likelihood of its prediction cells (resumable)")
+    bf.add_argument("--candidates", default=None, help="comma-separated candidate names (default: all: a, c, d1, d2, e, e+d2)")
+    bf.add_argument("--db", default="runs/bands.sqlite", help="result store of every trial (resumable)")
+    bf.add_argument("--summary", default="runs/bands_candidates.json", help="per-candidate summaries kept as they finish")
+    bf.add_argument("--out", default=None, help="write the likelihood table (markdown) here")
+    bf.add_argument("--adopt", action="store_true",
+                    help="write the best candidate to evertgym/data/bend_model.json if it beats the engine before the bend model")
+    bf.add_argument("--workers", type=int, default=None, help="worker processes (default: one per core)")
+    bf.add_argument("--force-workers", action="store_true", help="allow more --workers than CPUs")
+    bf.add_argument("--json", action="store_true", help=_JSON_HELP)
+    bf.set_defaults(func=cmd_bands_fit)
 
     rc = _sub(rep_sub, "colon", "colon phantom case study (Fig. 5d)")
     rc.add_argument("--json", action="store_true", help=_JSON_HELP)

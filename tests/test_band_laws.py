@@ -107,69 +107,19 @@ def test_bad_law_settings_are_one_line(kwargs, message):
     assert "\n" not in str(err.value)
 
 
-# ---- the study's bookkeeping (evertgym.experiments.mechanisms) --------------------------------------------------
+# ---- the physics line of every U-bend and colon command ----------------------------------------------------------
 
-def _paper_like_table():
-    """A table that meets every criterion: bare 12/12 to 37.5, 6/12 at 35, 0 below 32.5; 10% 12/12 to 30, 8/12
-    at 27.5 and 25, 2/12 below; 20% and 30% fewer, 30% at most 2/12 per cell."""
-    from evertgym.experiments.paper import UBEND_RADII_MM
-    bare = {40.0: 12, 37.5: 12, 35.0: 6, 32.5: 4}
-    ten = {40.0: 12, 37.5: 12, 35.0: 12, 32.5: 12, 30.0: 12, 27.5: 8, 25.0: 8}
-    t = {}
-    for r in UBEND_RADII_MM:
-        t[(0.0, r)] = (bare.get(r, 0), 12)
-        t[(0.1, r)] = (ten.get(r, 2), 12)
-        t[(0.2, r)] = (ten.get(r, 2) // 2, 12)
-        t[(0.3, r)] = (2 if r >= 35 else 0, 12)
-    return t
-
-
-def test_the_criteria_pass_a_table_like_the_papers_and_name_each_failure():
-    from evertgym.experiments.mechanisms import criteria
-    t = _paper_like_table()
-    assert all(ok for _, ok in criteria(t))
-    t[(0.0, 30.0)] = (3, 12)  # a bare robot passing 25% at 30 mm
-    for r in (40.0, 37.5, 35.0, 32.5, 30.0, 27.5, 25.0):  # 30% bands beating 10%
-        t[(0.3, r)] = (12, 12)
-    failed = [name for name, ok in criteria(t) if not ok]
-    assert failed == ["no bands <= 10% at 30 mm and below", "30% fewer successes than 10%", "30% bands pass <= 20% of their trials"]
-
-
-def test_the_fit_error_is_the_squared_distance_to_the_papers_bare_rates():
-    from evertgym.experiments.mechanisms import PAPER_BARE, bare_error, largest_move
-    t = {(0.0, r): (round(12 * v), 12) for r, v in PAPER_BARE.items()}
-    assert bare_error(t) == pytest.approx(sum((round(12 * v) / 12 - v) ** 2 for v in PAPER_BARE.values()))
-    u = dict(t)
-    u[(0.0, 35.0)] = (12, 12)
-    assert bare_error(u) == pytest.approx(bare_error(t) - (7 / 12 - 0.583) ** 2 + (1 - 0.583) ** 2)
-    assert largest_move(t, u) == 5
-
-
-@pytest.mark.parametrize("argv, says", [
-    (["--candidates", "hinges,magic"], "--candidates = 'hinges,magic' is out of range: allowed a comma-separated subset of hinges"),
-    (["--trials", "0"], "--trials = 0 is out of range: allowed [1, 100]"),
-    (["--sim", '{"linear_solver": "lu"}'], "--sim = '{\"linear_solver\": \"lu\"}' is not allowed: linear_solver = 'lu' is out of range"),
-    (["--sim", '{"engine": "dynamic"}'], "is not allowed: the study runs on the quasi-static engine: leave engine out"),
-    (["--sim", '{"nope": 1}'], "is not allowed: unknown SimConfig fields ['nope']"),
-    (["--sim", "[1]"], "--sim = '[1]' is not allowed: not a JSON object of SimConfig fields"),
-])
-def test_the_study_script_refuses_bad_input_in_one_line(argv, says, tmp_path):
-    import subprocess
-    import sys
-    from pathlib import Path
-    script = Path(__file__).resolve().parents[1] / "scripts" / "band_mechanisms.py"
-    out = subprocess.run([sys.executable, str(script), *argv, "--db", str(tmp_path / "s.sqlite"), "--write", ""],
-                         capture_output=True, text=True, timeout=120)
-    assert out.returncode != 0 and says in out.stderr and out.stderr.strip().count("\n") == 0
-    assert not (tmp_path / "s.sqlite").exists()
-
-
-def test_the_physics_line_says_which_laws_are_on_and_what_the_default_misses():
-    from evertgym.experiments.mechanisms import physics_note
+def test_the_physics_line_names_the_adopted_model_its_fits_and_the_overrides():
+    from evertgym.experiments.bend_model import physics_note
+    from evertgym.sim.variation import bend_model
     default = physics_note()
-    assert "quasi-static engine" in default and "laws on: none" in default and "not reproduced" in default
-    folded = physics_note({"band_fold": True, "flattening": 0.2})
-    assert "laws on: band fold, flattening" in folded and "Not a default" in folded and "not reproduced" not in folded
+    model = bend_model()
+    assert default.startswith("physics: quasi-static engine with bend model (" + model["candidate"] + ")")
+    for name in model["fitted"]:
+        assert name in default and "fitted on" in default
+    for miss in model.get("misses", []):
+        assert miss in default
+    assert 'overrides on top: {"band_fold": true, "flattening": 0.2}' in physics_note({"band_fold": True, "flattening": 0.2})
     assert physics_note({"engine": "dynamic", "section_law": True}).startswith("physics: dynamic engine (section law)")
 
 
@@ -181,26 +131,6 @@ def test_reproduce_ubend_names_its_physics_in_the_table_and_the_json(capsys, tmp
             "--db", str(tmp_path / "u.sqlite"), "--backend", "serial"]
     assert main([*argv, "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
-    assert "band fold" in out["physics"] and out["rows"][0]["successes"] == 0  # a 30% band folds under a 40 mm bend's push
+    assert '"band_fold": true' in out["physics"] and out["rows"][0]["successes"] == 0  # a 30% band folds under a 40 mm bend's push
     assert main(argv) == 0
     assert "physics: quasi-static engine" in capsys.readouterr().out
-
-
-def test_the_colon_criteria_want_the_bare_robot_stalled_and_the_banded_one_through_below_8kpa():
-    from evertgym.experiments.mechanisms import colon_criteria
-    paper = [{"reduction": 0.0, "passed": False, "peak_pressure_kpa": 8.0}, {"reduction": 0.1, "passed": True, "peak_pressure_kpa": 6.5}]
-    assert all(ok for _, ok in colon_criteria(paper))
-    default = [{"reduction": 0.0, "passed": True, "peak_pressure_kpa": 2.0}, {"reduction": 0.1, "passed": True, "peak_pressure_kpa": 8.0}]
-    assert [ok for _, ok in colon_criteria(default)] == [False, False]
-
-
-def test_the_studys_sim_fields_reach_every_trial_under_the_candidates_switches(tmp_path):
-    """``run_study(..., sim=...)`` (``band_mechanisms.py --sim``): the fields go into each trial's SimConfig, and a
-    candidate's own switch wins over them."""
-    from evertgym.experiments.mechanisms import CANDIDATES, _table
-
-    fold = next(c for c in CANDIDATES if c.key == "band_fold")
-    recs = _table(tmp_path / "s.sqlite", fold, 1.0, 1, (30.0,), (0.0, 0.1), False,
-                  {"linear_solver": "semiseparable", "band_fold": False})
-    sims = sorted((r.spec.scene["episode"]["sim"].get("band_fold", False), r.spec.scene["episode"]["sim"]["linear_solver"]) for r in recs)
-    assert sims == [(False, "semiseparable"), (True, "semiseparable")]  # bare: the band-only switch left out; banded: it wins

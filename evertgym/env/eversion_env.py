@@ -19,6 +19,9 @@ from evertgym.scenes import FAMILIES, Scene, SceneSpec, make_scene
 from evertgym.sim import EversionSim, SimConfig
 from evertgym.sim.growth import MAX_PRESSURE_PA
 from evertgym.sim.simulator import check_buildable
+from evertgym.sim.variation import draw as draw_variation
+from evertgym.sim.variation import resolve as resolve_variation
+from evertgym.sim.variation import robot_index
 
 _LOOKAHEAD_M = (0.02, 0.04, 0.06, 0.08, 0.10)
 _CLIP = 10.0  # upper bound of the unbounded ratios (tip force, lumen width)
@@ -166,6 +169,10 @@ class EversionEnv(gym.Env):
     success_weight        10                      reward weight, [0, 1e6]
     sim_config            SimConfig()             a :class:`SimConfig` or a dict of its fields
     render_mode           None                    "rgb_array" or "human"
+    variation             "calibrated"            the robot-to-robot and trial-to-trial spread
+                                                  (:mod:`evertgym.sim.variation`): "calibrated",
+                                                  "off" / None, or a dict of Variation fields;
+                                                  the episode's draws are in ``info["variation"]``
     ====================  ======================  ==============================================
 
     **Rendering**: ``rgb_array`` frames (480 x 480) from :class:`evertgym.render.FrameRenderer`
@@ -205,6 +212,7 @@ class EversionEnv(gym.Env):
         wall_friction: tuple[float, float] | None = None,
         pressure_noise_kpa: float = 0.0,
         insertion_noise_mm: float = 0.0,
+        variation: dict | str | None = "calibrated",
     ):
         self.design = design if isinstance(design, TubeDesign) else TubeDesign.from_dict({"tube": {"length_mm": 900.0}} if design is None else design)
         self.scene_cfg = dict(_check_scene({"family": "ubend", "params": {}} if scene is None else scene, self.design))
@@ -243,6 +251,8 @@ class EversionEnv(gym.Env):
         self.wall_friction_range = None if wall_friction is None else check_pair("wall_friction", wall_friction, 0.0, 5.0)
         self.pressure_noise_pa = check_range("pressure_noise_kpa", pressure_noise_kpa, 0.0, 8.0, unit="kPa") * 1e3
         self.insertion_noise_m = check_range("insertion_noise_mm", insertion_noise_mm, 0.0, 1000.0, unit="mm") / 1e3
+        self.variation = resolve_variation(variation)
+        self._variation_record: dict = {}
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode = {render_mode!r}: allowed {self.metadata['render_modes']} or None")
         self.control_dt = 1.0 / control_hz
@@ -295,7 +305,7 @@ class EversionEnv(gym.Env):
         return self._scene
 
     # ---- episode --------------------------------------------------------------
-    def _draw_episode(self, scene_seed: int | None) -> tuple[Scene, TubeDesign, np.ndarray, SimConfig]:
+    def _draw_episode(self, scene_seed: int | None, episode_seed: int | None = None) -> tuple[Scene, TubeDesign, np.ndarray, SimConfig]:
         rng = self.np_random
         params = sample_params(dict(self.scene_cfg.get("params", {})), rng)
         seed = self.scene_cfg.get("seed", "episode")
@@ -321,6 +331,15 @@ class EversionEnv(gym.Env):
             changes["regulator_tau_s"] = float(rng.uniform(*self.regulator_tau_range))
         if self.wall_friction_range is not None:
             changes["wall_friction"] = float(rng.uniform(*self.wall_friction_range))
+        self._variation_record = {}
+        cfg = self.sim_config
+        if self.variation is not None and cfg.engine == "quasistatic":
+            # the robot and the trial (sim.variation), after every other draw; the bend model is the
+            # quasi-static engine's (the dynamic chain keeps its own calibration)
+            robot = robot_index(self.variation, episode_seed, rng)
+            varied, self._variation_record = draw_variation(self.variation, robot, rng, changes.get("wall_friction", cfg.wall_friction),
+                                                            cfg.tip_friction, True)
+            changes.update(varied)
         config = dataclasses.replace(self.sim_config, **changes) if changes else self.sim_config
         return scene, design, base, config
 
@@ -330,7 +349,7 @@ class EversionEnv(gym.Env):
         # the last episode's simulator and scene go before the next are built, not after (the
         # colon's 2,000 wall shapes otherwise coexist for a moment, about 10 MB of peak memory)
         self._sim = self._scene = self._renderer = None
-        self._scene, design, base, config = self._draw_episode(scene_seed)
+        self._scene, design, base, config = self._draw_episode(scene_seed, seed)
         self._sim = EversionSim(design, scene=self._scene, config=config, base=tuple(base))
         self.command_pa = 0.0
         self._s_tip = self._tip_arclength()
@@ -481,6 +500,7 @@ class EversionEnv(gym.Env):
             "regulator_tau_s": sim.cfg.regulator_tau_s,
             "wall_friction": sim.cfg.wall_friction,
             "engine": sim.cfg.engine,
+            "variation": dict(self._variation_record),
         }
         info.update(sim.solve_stats)  # quasi-static engine: solves, solve_failures, ... (never hidden)
         info.update({f"reward_{k}": float(v) for k, v in self._terms.items()})

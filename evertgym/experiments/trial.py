@@ -4,7 +4,9 @@
 ``episode`` table: ``max_s`` (time limit, default 20 s), ``control_hz`` (10),
 ``band_offset_mm`` and ``entry_offset_mm`` (``[lo, hi]`` ranges drawn per trial from the
 trial's seed: the paper's randomisation of band position against the bend and of the
-robot's start) and ``sim`` (fields of :class:`~evertgym.sim.config.SimConfig` that override
+robot's start), ``variation`` (the robot's and the trial's spread, :mod:`evertgym.sim.variation`:
+``"calibrated"`` when absent, ``"off"`` or a dict of its fields; the draws are in the result's
+``variation``) and ``sim`` (fields of :class:`~evertgym.sim.config.SimConfig` that override
 its defaults, e.g. ``{"mass_ratio": 0.1}``; absent: the defaults).  ``TrialSpec.policy`` names a policy: ``{"name": "constant",
 "pressure_kpa": 3}``, ``{"name": "operator", ...}``, ``{"name": "tuned"}`` or
 ``{"name": "agent", "path": "agents/colon_ppo.zip"}``.
@@ -37,6 +39,7 @@ def make_trial_env(spec: TrialSpec) -> EversionEnv:
         control_hz=float(episode.get("control_hz", 10.0)),
         max_episode_s=float(episode.get("max_s", 20.0)),
         sim_config=episode.get("sim"),
+        variation=episode.get("variation", "calibrated"),
     )
 
 
@@ -78,6 +81,7 @@ def run_trial(spec: TrialSpec) -> dict:
         "pressure_position": [[round(x, 1), round(p, 3)] for x, p in pressures[:: max(1, len(pressures) // 60)]],
         "scene_params": {k: v for k, v in env.scene.params.items() if isinstance(v, (int, float, str, bool))},
         "engine": env.sim.cfg.engine,
+        "variation": info.get("variation", {}),
         **env.sim.solve_stats,  # the quasi-static engine's solves and the ones that ended above tolerance
     }
     if not info["success"]:  # where and why it stopped (evertgym.sim.diagnostics)

@@ -20,6 +20,7 @@ below 8 kPa.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -96,6 +97,38 @@ class EversionThreshold:
         """The law in the parameter file."""
         d = load_params().eversion_threshold
         return cls(d["p0_pa"], d["a_pa"], d["c"])
+
+
+def threshold_cv(reduction: float | np.ndarray) -> float | np.ndarray:
+    """Robot-to-robot coefficient of variation of the eversion threshold at ``reduction``: Exp 4's SD
+    over its median per row (0.09-0.16 for 0-30%), linear between the rows (measurements.json
+    ``eversion_pressure_test``)."""
+    red, cv = _cv_table()
+    return np.interp(reduction, red, cv)
+
+
+@functools.lru_cache(maxsize=1)
+def _cv_table() -> tuple[np.ndarray, np.ndarray]:
+    rows = load_measurements()["eversion_pressure_test"]["rows"]
+    return (np.array([r["diameter_reduction"] for r in rows]),
+            np.array([r["sd"] / r["median_min_pressure_kPa"] for r in rows]))
+
+
+@dataclass(frozen=True)
+class VariedThreshold(EversionThreshold):
+    """One fabricated robot's threshold: the calibrated law times ``1 + z cv(rho)``, ``z`` the robot's
+    standard-normal draw and ``cv`` :func:`threshold_cv` (floored at 10% of the law)."""
+
+    z: float = 0.0
+
+    def __call__(self, reduction: float | np.ndarray) -> float | np.ndarray:
+        base = super().__call__(reduction)
+        return base * np.maximum(1.0 + self.z * threshold_cv(reduction), 0.1)
+
+    @classmethod
+    def of_robot(cls, z: float) -> EversionThreshold:
+        law = EversionThreshold.calibrated()
+        return law if z == 0.0 else cls(law.p0_pa, law.a_pa, law.c, float(z))
 
 
 def fit_eversion_threshold() -> dict:

@@ -1,8 +1,9 @@
-"""Switchable laws of the band-mechanism study (issue 26; ``shared/notes/bend-physics.md``, sections 2, 8, 10).
+"""Switchable band-mechanism laws of the quasi-static engine (docs/bands.md; the bend-physics note, sections 2, 8, 10, 11).
 
-Each is a term of the quasi-static engine's growth law, off by default (``SimConfig``); the study
-(``scripts/band_mechanisms.py``, :mod:`evertgym.experiments.mechanisms`) switches them on one at a
-time and refits what the no-band U-bend rows may calibrate.  SI throughout.
+Each is a term of the engine's growth law or joint law, a ``SimConfig`` field whose default is the
+adopted bend model's (``evertgym/data/bend_model.json``); ``evertgym bands fit``
+(:mod:`evertgym.experiments.bend_model`) fits each candidate combination on the paper's
+calibration cells and ranks them by likelihood.  SI throughout.
 
 * **The band's axial fold** (``band_fold``; note, sections 2 and 8, candidate 2).  An everted band
   carries the tip's push on to the base only while its wall stays in tension: the gas pulls its
@@ -29,6 +30,18 @@ time and refits what the no-band U-bend rows may calibrate.  SI throughout.
   band's slack fabric flattens further).  The segments either side of the joint collide with the
   radius ``r (1 - f)`` and the joint's wrinkling and collapse moments scale with ``1 - f``.  The
   engine lags it by one growth increment (the state of the last equilibrium sets the next).
+* **The section's axial load** (``axial_load``; the bend model's candidate (c); note, section 2 and
+  section 11's axial balance).  At a cut the gas pulls with ``p pi r(s)^2``; the wall carries that
+  less the compressive loads, the tip's push against the wall ``F_tip`` and the tail's tension
+  ``T_tail``: ``N_wall = p pi r^2 - F_tip - T_tail``.  The wall's wrinkling and collapse moments
+  (about ``N_wall r / 2``) scale with ``N_wall / (p pi r^2)``, lowest at bands (``r_b^2``).  Lagged by
+  one increment, as flattening is.
+* **The band hinge** (``band_hinge_relief``, ``band_hinge_reach_m``; candidate (e), phenomenological).
+  A band that has wrinkled sets the hinge the turn folds into; the chain carries the body's shape at
+  the band, not the way the hinge steers the tip along the outer wall.  The law stands for that:
+  while a wrinkled band (a joint of its strip at or past its wrinkling moment) lies within the reach
+  behind the tip, the tip's friction coefficient is lowered by the relief fraction.  Both parameters
+  are fitted on the 10% U-bend cells at 30 and 25 mm alone (measurements.json's rule).
 * **The eversion bottleneck** (candidate 3) is the calibrated threshold of the material at the
   tip (Exp 4, :class:`evertgym.model.eversion.EversionThreshold`), always part of the growth law;
   ``band_eversion_threshold = False`` removes it (a counterfactual of the study, never a default).
@@ -63,3 +76,27 @@ def flattening(phi: np.ndarray, k: np.ndarray, mw: np.ndarray, r_cell: np.ndarra
     x = np.abs(phi) / np.maximum(phi_w, 1e-300)
     cap = f_max + np.clip(1.0 - r_cell / radius_m, 0.0, 1.0)
     return np.where(x > 1.0, cap * np.minimum(1.0, 0.5 * (x - 1.0)), 0.0)
+
+
+def axial_share(load_n: float, pressure_pa: float, r_cell: np.ndarray) -> np.ndarray:
+    """``max(0.05, 1 - N / (p pi r^2))`` per node: the share of the wall's pressure tension left after
+    the axial load ``load_n`` (N) at pressure ``pressure_pa`` (Pa) and radius ``r_cell`` (m); ones at
+    zero pressure (no load is carried)."""
+    if pressure_pa <= 0.0:
+        return np.ones_like(r_cell)
+    return np.maximum(0.05, 1.0 - load_n / (pressure_pa * math.pi * r_cell * r_cell))
+
+
+def hinged_band_near_tip(moments: np.ndarray, mw: np.ndarray, band_joints: list[np.ndarray], centres_m: np.ndarray,
+                         length_m: float, reach_m: float) -> bool:
+    """Whether an everted band within ``reach_m`` behind the tip (band centre at ``centres_m``, tip at
+    ``length_m``) has wrinkled: a joint of its strip (``band_joints``, indices into ``moments``) carries
+    at least its wrinkling moment ``mw`` (N m)."""
+    n = len(moments)
+    for joints, c in zip(band_joints, centres_m):
+        if c > length_m or length_m - c > reach_m:
+            continue
+        js = joints[joints < n]
+        if len(js) and bool(np.any(np.abs(moments[js]) >= mw[js] * (1.0 - 1e-9))):
+            return True
+    return False

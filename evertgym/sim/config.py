@@ -6,6 +6,10 @@ from dataclasses import asdict, dataclass, fields
 
 from evertgym._validate import check_range as _check
 from evertgym.model.eversion import GROWTH_GAIN_M_PER_S_PER_PA, MAX_GROWTH_SPEED_M_PER_S
+from evertgym.sim.variation import bend_model
+
+#: the adopted bend model's switches (evertgym/data/bend_model.json): the defaults of the band-mechanism laws
+_MODEL = bend_model()["switches"]
 
 #: the finest pymunk step accepted (s): 200x finer than the default 2 ms; below it one
 #: simulated second costs over 100,000 substeps (tens of seconds of wall time), and an
@@ -93,7 +97,16 @@ class SimConfig:
         ``band_eversion_threshold``: False removes the calibrated threshold of a band at the tip (a
         counterfactual of the study).  ``flattening``: the bare tube's largest cross-section flattening
         past wrinkling (a fraction of the radius; a band adds its reduction): the collision radius and
-        the collapse moment shrink with it.  Off (and True) by default.
+        the collapse moment shrink with it.  ``axial_load``: the wall's moment capacity at a section falls
+        with the axial load it carries, the tip's push and the tail's tension against ``p pi r(s)^2``
+        (first at bands).  ``band_hinge_relief`` and ``band_hinge_reach_m``: the phenomenological band
+        law, the tip's friction coefficient lowered by this fraction while a wrinkled band lies within
+        this reach behind the tip.  Their defaults are the adopted bend model's
+        (``evertgym/data/bend_model.json``, :mod:`evertgym.experiments.bend_model`).
+    Robot-to-robot variation (one fabricated robot; :mod:`evertgym.sim.variation`)
+        ``stiffness_factor`` multiplies the joints' bending stiffness; ``threshold_z`` is the robot's
+        standard-normal draw of its eversion threshold (Exp 4's coefficient of variation at the local
+        reduction).  1 and 0 by default: the median robot.
     """
 
     segment_length_m: float = 0.0075
@@ -135,10 +148,15 @@ class SimConfig:
     max_newton_iterations: int = 60
     pressure_increment_fraction: float = 0.05
     linear_solver: str = "semiseparable"
-    band_fold: bool = False
-    fold_pinch_per_rad: float = 0.0
+    band_fold: bool = _MODEL.get("band_fold", False)
+    fold_pinch_per_rad: float = _MODEL.get("fold_pinch_per_rad", 0.0)
     band_eversion_threshold: bool = True
-    flattening: float = 0.0
+    flattening: float = _MODEL.get("flattening", 0.0)
+    axial_load: bool = _MODEL.get("axial_load", False)
+    band_hinge_relief: float = _MODEL.get("band_hinge_relief", 0.0)
+    band_hinge_reach_m: float = _MODEL.get("band_hinge_reach_m", 0.15)
+    stiffness_factor: float = 1.0
+    threshold_z: float = 0.0
 
     def __post_init__(self) -> None:
         _check("segment_length_m", self.segment_length_m, 0.0005, 0.05, lo_open=False)
@@ -185,7 +203,11 @@ class SimConfig:
                              f"{' or '.join(repr(e) for e in LINEAR_SOLVERS)}")
         _check("fold_pinch_per_rad", self.fold_pinch_per_rad, 0.0, 10.0)
         _check("flattening", self.flattening, 0.0, 0.5, lo_open=False)
-        for name in ("band_fold", "band_eversion_threshold"):
+        _check("band_hinge_relief", self.band_hinge_relief, 0.0, 0.9, lo_open=False)
+        _check("band_hinge_reach_m", self.band_hinge_reach_m, 0.005, 1.0, lo_open=False)
+        _check("stiffness_factor", self.stiffness_factor, 0.5, 2.0, lo_open=False)
+        _check("threshold_z", self.threshold_z, -5.0, 5.0, lo_open=False)
+        for name in ("band_fold", "band_eversion_threshold", "axial_load"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"{name} = {getattr(self, name)!r} is out of range: allowed true or false")
         other = "dynamic" if self.engine == "quasistatic" else "quasistatic"
@@ -218,7 +240,8 @@ DYNAMIC_ONLY = ("damping", "inertia_factor", "mass_ratio", "iterations", "law_in
 #: Settings of the quasi-static engine.
 QUASISTATIC_ONLY = ("growth_increment_m", "solver_tolerance", "barrier_gap_m", "friction_slip_m", "friction_lag_iterations",
                     "max_newton_iterations", "pressure_increment_fraction", "linear_solver", "band_fold", "fold_pinch_per_rad",
-                    "band_eversion_threshold", "flattening")
+                    "band_eversion_threshold", "flattening", "axial_load", "band_hinge_relief", "band_hinge_reach_m",
+                    "stiffness_factor", "threshold_z")
 _DEFAULTS = {f.name: f.default for f in fields(SimConfig)}
 
 

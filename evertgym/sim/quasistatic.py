@@ -53,7 +53,7 @@ from evertgym.model.params import ModelParams, load_params
 from evertgym.model.pressure import _END_SLOPE, KINK_MOMENT_FRACTION, wrinkled_moment_fraction
 from evertgym.scenes.scene import Scene
 from evertgym.sim import qs_kernel as qk
-from evertgym.sim.band_laws import band_fold_pressure, flattening, fold_excess
+from evertgym.sim.band_laws import axial_share, band_fold_pressure, flattening, fold_excess, hinged_band_near_tip
 from evertgym.sim.config import SimConfig
 from evertgym.sim.discretize import RESIDUAL_STIFFNESS_FRACTION
 from evertgym.sim.events import SimEvent
@@ -296,6 +296,11 @@ class QuasiStaticSim(GrowingTube):
         # barrier stiffness: 0.1 x the largest drive (8 kPa pi r^2) per barrier gap (N/m)
         self._kappa = 0.1 * 8000.0 * math.pi * design.radius_m**2 / cfg.barrier_gap_m
         self._flat = np.zeros(len(self.nodes))  # per joint: the cross-section's flattening f (band_laws.flattening)
+        self._tip_mu = cfg.tip_friction  # the tip's friction coefficient now (band_hinge_relief lowers it)
+        # per band: the joints inside its strip and its centre (m), for the band-hinge law
+        self._band_joints = [np.nonzero(np.abs(self.nodes - b.position_m) <= 0.5 * b.width_m + 0.5 * self.ds)[0]
+                             for b in design.bands]
+        self._band_centres = np.array([b.position_m for b in design.bands], float)
         self._seg_r0: dict[int, float] = {}  # per full segment: its radius unflattened (m)
         self._apply_pressure(0.0)
         with one_blas_thread():
@@ -316,12 +321,22 @@ class QuasiStaticSim(GrowingTube):
     # ---- the joint law at the applied pressure -----------------------------------
     def _apply_pressure(self, p: float) -> None:
         """Joint stiffness (N m/rad) and wrinkling moments (N m) of every node at pressure ``p`` (Pa)."""
-        scale = self._law.effective_modulus(max(p, 0.0)) / self._e_ref
+        scale = self._law.effective_modulus(max(p, 0.0)) / self._e_ref * self.cfg.stiffness_factor
         self._k_all = scale / self._c_ref
         self._mw_all = 0.5 * max(p, 0.0) * math.pi * self._r3
         if self.cfg.flattening > 0:
             self._mw_all = self._mw_all * (1.0 - self._flat)
         self._p_applied = p
+        if self.cfg.axial_load:
+            self._mw_all = self._mw_all * self._axial_factors()
+
+    def _axial_factors(self) -> np.ndarray:
+        """Per node, the share of the wall's tension left after the axial load, ``1 - N / (p pi r(s)^2)``
+        (floored at 5%; :func:`~evertgym.sim.band_laws.axial_share`): ``N`` the tip's push against the wall
+        (the last equilibrium's) and the tail's tension, the bare threshold's force times the capstan loss
+        of the body's turning."""
+        tail = self._bare_threshold[0] * self._bare_threshold[1] * math.exp(self.cfg.bend_loss_per_rad * self._turning())
+        return axial_share(max(self.tip_force, 0.0) + tail, max(self._p_applied, 0.0), self._r_cell)
 
     def _scales(self) -> tuple[float, float]:
         """Force (N) and moment (N m) scales of the convergence test: ``p pi r^2`` and ``p pi r^3``."""
@@ -721,6 +736,9 @@ class QuasiStaticSim(GrowingTube):
         """Outputs and events after an accepted state."""
         if self.cfg.flattening > 0:
             self._flatten()
+        if self.cfg.axial_load:
+            mw0 = 0.5 * max(self._p_applied, 0.0) * math.pi * self._r3
+            self._mw_all = mw0 * (1.0 - self._flat) * self._axial_factors()
         tc = self.tip_contact
         mag = float(math.hypot(tc[0], tc[1]))
         self._tip_force_norm = mag
@@ -743,6 +761,10 @@ class QuasiStaticSim(GrowingTube):
         if self._kinked:
             mc = 2.0 * self._mw_all[:n]
             self._kinked = {j for j in self._kinked if abs(moments[j]) >= 0.8 * KINK_MOMENT_FRACTION * mc[j]}
+        if self.cfg.band_hinge_relief > 0:
+            hinged = hinged_band_near_tip(moments, self._mw_all[:n], self._band_joints, self._band_centres, self.length,
+                                          self.cfg.band_hinge_reach_m)
+            self._tip_mu = self.cfg.tip_friction * (1.0 - self.cfg.band_hinge_relief) if hinged else self.cfg.tip_friction
 
     # ---- geometry queries ---------------------------------------------------------------------
     def _query_walls(self, pts: np.ndarray, reach: float) -> np.ndarray:
@@ -850,7 +872,7 @@ class QuasiStaticSim(GrowingTube):
             *self._feature_boxes, walls.a, walls.b, walls.piece, walls.vertex, walls.radius, walls.friction, self._pc0,
             self._u_all, cos_u, sin_u, self._k_piece, self._travel, self._k_travel, fric["s"], fric["wall"], fric["wl"],
             fric["t"], fric["ml"], self.ds, cfg.barrier_gap_m + margin, cfg.barrier_gap_m + _PIECE_MARGIN_M,
-            cfg.wall_friction, cfg.tip_friction)
+            cfg.wall_friction, self._tip_mu)
         if overlap:  # (the features an overlap can involve are all within the margin)
             return False
         phi_ref = phi.copy()

@@ -16,7 +16,7 @@ import numpy as np
 
 from evertgym.design import TubeDesign
 from evertgym.limits import MAX_EVENTS
-from evertgym.model.eversion import EversionThreshold
+from evertgym.model.eversion import EversionThreshold, VariedThreshold
 from evertgym.model.params import ModelParams
 from evertgym.model.pressure import InflatedBeamLaw
 from evertgym.sim.config import SimConfig
@@ -73,7 +73,7 @@ class GrowingTube:
         # where the tip's material changes radius (m), and where each band starts (m)
         self._band_zones = [(z.start_m - 2 * ds, z.end_m + 2 * ds) for z in self._ref_section.zones]
         self._band_starts = [(i, b.position_m - b.width_m / 2, b.reduction) for i, b in enumerate(design.bands)]
-        self.threshold = threshold or EversionThreshold.calibrated()
+        self.threshold = threshold or VariedThreshold.of_robot(cfg.threshold_z)
         self._bare_threshold = (float(self.threshold(0.0)), math.pi * design.radius_m * design.radius_m)
         self.growth = GrowthLaw(self.threshold, cfg.growth_gain_m_per_s_per_pa, cfg.bend_loss_per_rad, cfg.max_growth_speed_m_per_s)
         self.regulator = PressureRegulator(cfg.regulator_tau_s)

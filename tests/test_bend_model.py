@@ -1,0 +1,135 @@
+"""The calibrated, stochastic bend model: the declared variation (evertgym.sim.variation), the new band
+laws (axial load, band hinge), the likelihood machinery (evertgym.experiments.bend_model) and their bad input."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.stats import binom
+
+from evertgym.cli import main
+from evertgym.env.eversion_env import EversionEnv
+from evertgym.experiments.bend_model import (
+    PAPER_BARE,
+    SWITCHES_OFF,
+    _sim,
+    cell_loglik,
+    fit_friction,
+    pass_prob,
+)
+from evertgym.model.eversion import EversionThreshold, VariedThreshold, threshold_cv
+from evertgym.sim.band_laws import axial_share, hinged_band_near_tip
+from evertgym.sim.config import SimConfig
+from evertgym.sim.variation import Variation, draw, resolve, robot_index, stiffness_cv
+
+
+def test_the_measured_spreads_are_the_papers():
+    """Exp 4: SD over median 0.04/0.46, 0.06/0.62, 0.19/1.16, 0.21/1.53; Exp 1 and 3: median SD over mean 3.5%."""
+    assert threshold_cv(np.array([0.0, 0.1, 0.2, 0.3])) == pytest.approx([0.04 / 0.46, 0.06 / 0.62, 0.19 / 1.16, 0.21 / 1.53])
+    assert threshold_cv(0.05) == pytest.approx(0.5 * (0.04 / 0.46 + 0.06 / 0.62))
+    assert stiffness_cv() == pytest.approx(0.42 / 11.94, rel=0.01)
+
+
+def test_a_robots_threshold_scales_with_its_draw_and_the_reduction_cv():
+    law = EversionThreshold.calibrated()
+    robot = VariedThreshold.of_robot(1.5)
+    for rho in (0.0, 0.1, 0.3):
+        assert robot(rho) == pytest.approx(law(rho) * (1 + 1.5 * threshold_cv(rho)))
+    assert VariedThreshold.of_robot(0.0) == law
+
+
+def test_robots_are_shared_by_seed_and_trials_draw_their_friction():
+    var = Variation(friction_median=2.0, friction_sigma=0.05)
+    rng = np.random.default_rng(0)
+    assert [robot_index(var, s, rng) for s in range(12)] == [0] * 4 + [1] * 4 + [2] * 4
+    a, rec_a = draw(var, 1, np.random.default_rng(5), 1.0, 0.2, True)
+    b, rec_b = draw(var, 1, np.random.default_rng(5), 1.0, 0.2, True)
+    c, _ = draw(var, 1, np.random.default_rng(6), 1.0, 0.2, True)
+    assert a == b and rec_a == rec_b  # bit for bit from the seeds
+    assert a["stiffness_factor"] == c["stiffness_factor"] and a["threshold_z"] == c["threshold_z"]  # the same robot
+    assert a["tip_friction"] != c["tip_friction"]  # another trial
+    assert a["tip_friction"] / 0.2 == pytest.approx(a["wall_friction"] / 1.0) == pytest.approx(rec_a["friction_factor"])
+    # the friction factor is lognormal with the declared median and spread
+    f = np.array([draw(var, 0, np.random.default_rng(i), 1.0, 0.2, True)[1]["friction_factor"] for i in range(2000)])
+    assert np.median(f) == pytest.approx(2.0, rel=0.01)
+    assert np.std(np.log(f)) == pytest.approx(0.05, rel=0.06)
+
+
+def test_an_env_records_its_draws_and_repeats_them_from_the_seed():
+    env = EversionEnv(scene={"family": "straight", "params": {}}, variation={"friction_median": 1.5, "friction_sigma": 0.1})
+    _, info = env.reset(seed=5)
+    first = info["variation"]
+    assert first["robot"] == 1 and env.sim.cfg.tip_friction == pytest.approx(0.2 * first["friction_factor"])
+    assert env.sim.cfg.stiffness_factor == first["stiffness_factor"]
+    _, info = env.reset(seed=5)
+    assert info["variation"] == first
+    off = EversionEnv(scene={"family": "straight", "params": {}}, variation="off")
+    _, info = off.reset(seed=5)
+    assert info["variation"] == {} and off.sim.cfg.tip_friction == 0.2
+
+
+@pytest.mark.parametrize("bad, field", [("sometimes", "variation"), ({"friction_sigma": 2.0}, "friction_sigma"),
+                                         ({"friction_mean": 1.0}, "unknown fields"), ({"robots": 1.5}, "robots")])
+def test_bad_variation_is_refused_in_one_line(bad, field):
+    with pytest.raises(ValueError, match=field):
+        resolve(bad)
+
+
+def test_bad_switch_values_name_the_field():
+    for name, value in (("band_hinge_relief", 0.95), ("band_hinge_reach_m", 0.0), ("stiffness_factor", 3.0), ("threshold_z", 9.0),
+                        ("axial_load", 1)):
+        with pytest.raises(ValueError, match=name):
+            SimConfig(**{name: value})
+
+
+def test_the_axial_share_falls_first_at_bands():
+    """N = 1 N at 3 kPa: the bare 40 mm section keeps 1 - 1 / 3.77, a 30% band's 1 - 1 / 1.85."""
+    r = np.array([0.02, 0.014])
+    share = axial_share(1.0, 3000.0, r)
+    assert share == pytest.approx([1 - 1 / (3000 * math.pi * 0.02**2), 1 - 1 / (3000 * math.pi * 0.014**2)])
+    assert share[1] < share[0]
+    assert axial_share(100.0, 3000.0, r) == pytest.approx([0.05, 0.05])  # floored
+    assert np.all(axial_share(1.0, 0.0, r) == 1.0)
+
+
+def test_a_band_hinge_counts_only_within_reach_and_once_wrinkled():
+    moments, mw = np.array([0.0, 0.5, 1.0, 0.2]), np.ones(4)
+    joints = [np.array([1, 2])]
+    assert hinged_band_near_tip(moments, mw, joints, np.array([0.1]), 0.2, 0.15)  # joint 2 at its wrinkling moment
+    assert not hinged_band_near_tip(moments, mw, joints, np.array([0.1]), 0.3, 0.15)  # out of reach
+    assert not hinged_band_near_tip(moments, mw, joints, np.array([0.25]), 0.2, 0.15)  # not yet everted
+    assert not hinged_band_near_tip(moments * 0.9, mw, joints, np.array([0.1]), 0.2, 0.15)  # not wrinkled
+
+
+def test_the_cell_loglikelihood_is_the_binomials_with_the_stated_clip():
+    for k, q in ((7, 0.6), (0, 0.1), (12, 0.9)):
+        assert cell_loglik(k, 12, q) == pytest.approx(binom.logpmf(k, 12, q))
+    assert cell_loglik(0, 12, 1.0) == pytest.approx(binom.logpmf(0, 12, 1 - 1 / 24))  # q = 1 in a failed cell: finite
+
+
+def test_the_friction_fit_recovers_a_known_median_and_spread():
+    """Synthetic critical frictions, one per trial: f* falls linearly with the radius; the paper-like counts
+    come from a median 2.5 and spread 0.04, and the fit finds them within its grid and intervals."""
+    radii = sorted(PAPER_BARE)
+    f_star = {r: np.full(12, 2.5 * math.exp(0.04 * (r - 34.0) / 2.5 * 0.9)) for r in radii}
+    fit = fit_friction(f_star)
+    q35 = pass_prob(f_star[35.0], fit["median"], fit["sigma"])
+    q325 = pass_prob(f_star[32.5], fit["median"], fit["sigma"])
+    assert fit["median_interval"][0] <= fit["median"] <= fit["median_interval"][1]
+    assert q35 > q325  # the fall is graded, not a knife-edge
+    assert 0.3 < q35 < 0.9 and 0.1 < q325 < 0.6
+    assert fit["sigma"] > 0.005
+
+
+def test_candidate_trials_name_every_switch_and_share_bare_trials():
+    assert _sim({"band_hinge_relief": 0.3, "band_hinge_reach_m": 0.25}, 0.0) == _sim({}, 0.0) == _sim({"band_fold": True}, 0.0)
+    assert set(_sim({"axial_load": True}, 0.1)) == set(SWITCHES_OFF)
+    assert _sim({"band_hinge_relief": 0.3}, 0.1)["band_hinge_relief"] == 0.3
+
+
+def test_bands_fit_refuses_bad_candidates_in_one_line(capsys):
+    assert main(["bands", "fit", "--candidates", "a,zz"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "zz" in err[0] and "allowed" in err[0]
