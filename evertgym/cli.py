@@ -390,8 +390,22 @@ def _physics(sim: dict | None) -> str:
     return physics_note(sim)
 
 
+_TABLE_START, _TABLE_END = "<!-- likelihood table: evertgym bands fit -->", "<!-- end of likelihood table -->"
+
+
+def _write_table(path: Path, table: str) -> None:
+    """Write the likelihood table to ``path``: between its markers where the page has them, else the whole file."""
+    text = path.read_text() if path.exists() else ""
+    if _TABLE_START in text and _TABLE_END in text:
+        head, rest = text.split(_TABLE_START, 1)
+        _, tail = rest.split(_TABLE_END, 1)
+        path.write_text(f"{head}{_TABLE_START}\n{table}{_TABLE_END}{tail}")
+    else:
+        path.write_text(table)
+
+
 def cmd_bands_fit(args: argparse.Namespace) -> int:
-    from evertgym.experiments.bend_model import CANDIDATES, candidate, likelihood_table, run_study, write_model
+    from evertgym.experiments.bend_model import CANDIDATES, candidate, likelihood_table, run_study, select, write_model
     from evertgym.limits import check_workers
     from evertgym.sim.variation import BEND_MODEL_PATH
 
@@ -405,11 +419,11 @@ def cmd_bands_fit(args: argparse.Namespace) -> int:
     if len(set(names)) != len(names):
         raise CLIError(f"--candidates = {args.candidates!r} names a candidate twice")
     study = run_study(names, args.db, args.summary, workers=args.workers, progress=not args.json)
-    best = max(study["candidates"], key=lambda c: c["loglik_prediction"])
+    best = select(study)
     beats = best["loglik_prediction"] > study["previous"]["loglik_prediction"]
     table = likelihood_table(study)
     if args.out:
-        Path(args.out).write_text(table)
+        _write_table(Path(args.out), table)
     adopted = None
     if args.adopt and beats:
         write_model(best, BEND_MODEL_PATH)
@@ -418,7 +432,8 @@ def cmd_bands_fit(args: argparse.Namespace) -> int:
         print(dumps({**study, "best": best["candidate"], "beats_previous": beats, "adopted": adopted}, default=float))
         return 0
     print(table, end="")
-    print(f"best by prediction log-likelihood: ({best['candidate']}) {best['label']}: {best['loglik_prediction']:.2f} against "
+    print(f"best by prediction log-likelihood among those meeting the 20%/30% order: ({best['candidate']}) {best['label']}: "
+          f"{best['loglik_prediction']:.2f} against "
           f"{study['previous']['loglik_prediction']:.2f} for the engine before the bend model"
           + (f"; adopted, written to {BEND_MODEL_PATH}" if adopted else ("" if beats else "; it does not beat it: nothing adopted")))
     return 0
@@ -821,7 +836,8 @@ def build_parser() -> argparse.ArgumentParser:
     bf.add_argument("--candidates", default=None, help="comma-separated candidate names (default: all: a, c, d1, d2, e, e+d2)")
     bf.add_argument("--db", default="runs/bands.sqlite", help="result store of every trial (resumable)")
     bf.add_argument("--summary", default="runs/bands_candidates.json", help="per-candidate summaries kept as they finish")
-    bf.add_argument("--out", default=None, help="write the likelihood table (markdown) here")
+    bf.add_argument("--out", default=None, help="write the likelihood table (markdown) here: between the page's table markers "
+                                                "where it has them (docs/bands.md), else the whole file")
     bf.add_argument("--adopt", action="store_true",
                     help="write the best candidate to evertgym/data/bend_model.json if it beats the engine before the bend model")
     bf.add_argument("--workers", type=int, default=None, help="worker processes (default: one per core)")

@@ -133,3 +133,37 @@ def test_bands_fit_refuses_bad_candidates_in_one_line(capsys):
     assert main(["bands", "fit", "--candidates", "a,zz"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "zz" in err[0] and "allowed" in err[0]
+
+
+def test_a_trial_with_the_variation_reruns_bit_for_bit_and_records_its_draws():
+    from evertgym.experiments.paper import ubend_specs
+    from evertgym.experiments.trial import run_trial
+
+    spec = ubend_specs(12, radii=(30.0,), reductions=(0.1,), variation={"friction_median": 2.0, "friction_sigma": 0.05},
+                       seeds=(7,))[0]
+    spec = type(spec)(**{**spec.__dict__, "scene": {**spec.scene, "episode": {**spec.scene["episode"], "max_s": 1.0}}})
+    a, b = run_trial(spec), run_trial(spec)
+    assert a == b
+    assert a["variation"]["robot"] == 1 and a["variation"]["friction_factor"] != 2.0
+
+
+def test_the_table_goes_between_the_pages_markers(tmp_path):
+    from evertgym.cli import _TABLE_END, _TABLE_START, _write_table
+
+    page = tmp_path / "bands.md"
+    page.write_text(f"# Card\n\nbefore\n{_TABLE_START}\nold\n{_TABLE_END}\nafter\n")
+    _write_table(page, "| new |\n")
+    assert page.read_text() == f"# Card\n\nbefore\n{_TABLE_START}\n| new |\n{_TABLE_END}\nafter\n"
+    bare = tmp_path / "t.md"
+    _write_table(bare, "| t |\n")
+    assert bare.read_text() == "| t |\n"
+
+
+def test_selection_wants_the_order_constraints_then_the_prediction_likelihood():
+    from evertgym.experiments.bend_model import ORDER_FINDINGS, select
+
+    def cand(name, ll, order):
+        return {"candidate": name, "loglik_prediction": ll, "findings": {f: order for f in ORDER_FINDINGS}}
+
+    assert select({"candidates": [cand("x", -3.0, False), cand("y", -5.0, True), cand("z", -9.0, True)]})["candidate"] == "y"
+    assert select({"candidates": [cand("x", -3.0, False), cand("w", -4.0, False)]})["candidate"] == "x"

@@ -43,10 +43,8 @@ def test_no_band_robot_passes_wide_and_fails_tight_ubends_on_the_dynamic_engine(
     assert not res["success"] and res["stall_position_mm"] is not None
 
 
-@pytest.mark.xfail(strict=True, reason="issue 26: on the quasi-static engine (the default) every robot passes every U-bend")
 def test_no_band_robot_fails_the_20mm_ubend():
-    """The paper: the bare robot fails every U-bend below 32.5 mm.  Known miss of the default
-    engine (docs/quasistatic.md): it passes."""
+    """The paper: the bare robot fails every U-bend below 32.5 mm (the bend model, docs/bands.md)."""
     res = run_trial(ubend_specs(trials=1, radii=(20.0,), reductions=(0.0,))[0])
     assert not res["success"]
 
@@ -158,13 +156,11 @@ def test_banded_robot_passes_the_colon_bend(tmp_path, capsys):
     assert banded["passed"] and banded["peak_pressure_kpa"] < 8.0
 
 
-@pytest.mark.xfail(strict=True, reason="issue 26: on the quasi-static engine (the default) the bare robot passes the colon bend")
 def test_bare_robot_stalls_at_the_colon_bend(tmp_path, capsys):
-    """The paper's case study: the bare robot stalls at the bend even at 8 kPa.  Known miss of the
-    default engine: it passes at 2.0 kPa (docs/quasistatic.md)."""
+    """The paper's case study: the bare robot stalls at the bend even at 8 kPa (the bend model, docs/bands.md)."""
     assert main(["reproduce", "colon", "--json", "--db", str(tmp_path / "c.sqlite")]) == 0
     bare = json.loads(capsys.readouterr().out)["rows"][0]
-    assert not bare["passed"]
+    assert not bare["passed"] and bare["peak_pressure_kpa"] >= 7.99
 
 
 def test_score_resumes_from_its_store(tmp_path, capsys):
