@@ -520,7 +520,7 @@ def _warn_unconverged(rows: list[dict]) -> None:
     """One line when any trial had a solve that ended above the tolerance: its outcome may be the solver's."""
     trials = sum(r.get("trials_unconverged", 0) for r in rows)
     if trials:
-        print(f"warning: {trials} trial(s) had {sum(r['unconverged_solves'] for r in rows)} unconverged solve(s): their outcomes "
+        print(f"warning: {trials} trial(s) had {sum(r.get('unconverged_solves', 0) for r in rows)} unconverged solve(s): their outcomes "
               "may depend on the solver settings (--sim), not the physics; see docs/robustness.md")
 
 
@@ -635,7 +635,7 @@ def cmd_optimize(args: argparse.Namespace) -> int:
     print("held-out scenes:")
     for r in out["held_out"]:
         print(f"  {r['design_name']:>24}: success {r['success_rate']:.2f} [{r['success_ci_lo']:.2f}, {r['success_ci_hi']:.2f}] (n={r['n']}), "
-              f"unconverged solves {r['unconverged_solves']}")
+              f"unconverged solves {r.get('unconverged_solves', 0)}")
     _print_differences(out["differences"])
     _warn_unconverged(out["held_out"])
     print(_physics(sim))
@@ -717,8 +717,8 @@ def cmd_eval(args: argparse.Namespace) -> int:
     print("bend_peak_kpa: peak measured pressure with the tip in the scene's bend (mean over the episodes that reached it); "
           "peak<bend: episodes whose peak came before the bend (start-up or approach)")
     for r in rows:
-        if r["unconverged_solves"]:
-            print(f"warning: {r['policy']}: {r['episodes_unconverged']} episode(s) had {r['unconverged_solves']} unconverged solve(s): "
+        if r.get("unconverged_solves"):
+            print(f"warning: {r['policy']}: {r.get('episodes_unconverged')} episode(s) had {r['unconverged_solves']} unconverged solve(s): "
                   "their outcomes may depend on the solver settings, not the physics")
     if args.check_outcomes:
         checks = ", ".join(f"{name} / {d:g}" for name, d in OUTCOME_CHECKS)

@@ -334,6 +334,7 @@ class EversionEnv(gym.Env):
         if scene_seed is not None and (isinstance(scene_seed, (bool, np.bool_)) or not isinstance(scene_seed, (int, np.integer))
                                        or scene_seed < 0):
             raise ValueError(f"options['scene_seed'] = {scene_seed!r:.80} is not allowed: allowed an integer >= 0 (or None)")
+        scene_seed = None if scene_seed is None else int(scene_seed)
         super().reset(seed=seed)
         # the last episode's simulator and scene go before the next are built, not after (the
         # colon's 2,000 wall shapes otherwise coexist for a moment, about 10 MB of peak memory)
