@@ -80,16 +80,19 @@ _MAX_MOVE_M = 0.002
 #: walk there: one Colon-v0 episode's solves at the shortest increment needed 300-1000 iterations,
 #: and at 60 they ended 0.2-36 p pi r^2 out of balance.
 _ESCALATION = 20
-#: Work (Newton iterations weighted by the window's size, plus :data:`_SOLVE_WORK` per solve) one :meth:`QuasiStaticSim.step` call may
-#: spend: :data:`_WORK_MIN` plus :data:`_WORK_PER_S` per simulated second of the call (50,000 for a 0.1 s
-#: env step, about 1-3 s of wall time on one core).  The default settings stay below it (their answers are
-#: bit for bit those from before the budget: scripts/engine_digest.py); a setting that would spend more (a tolerance the solver cannot reach with a
-#: large Newton budget, a tiny growth increment) is cut off there: the solve running when the budget
-#: ends, and every later solve of the call (one Newton iteration each, no retries), ends unconverged and
-#: is counted (``solve_failures``, ``solve_budget_cuts``), so no setting can hang a step.
-_WORK_MIN = 30_000
-_WORK_PER_S = 200_000
-_SOLVE_WORK = 4
+#: Work one :meth:`QuasiStaticSim.step` call may spend, in units of about 13-20 us of one core (measured):
+#: a Newton iteration weighs ``1 + m/32`` (``+ (m/40)^3`` on the dense solver) for a window of ``m``
+#: unknowns, a solve's own setup :data:`_SOLVE_WORK`.  The budget is :data:`_WORK_MIN` plus
+#: :data:`_WORK_PER_S` per simulated second of the call: 250,000 for a 0.1 s env step, 3-5 s of wall time.
+#: The defaults stay far below it (Colon-v0's costliest step of 20 operator episodes: 49,700; their
+#: answers are bit for bit those from before the budget: scripts/engine_digest.py).  A setting that would
+#: spend more (a tolerance the solver cannot reach with a large Newton budget, a tiny growth increment) is
+#: cut off there: the solve running when the budget ends, and every later solve of the call (one Newton
+#: iteration each, no retries, the pending growth in one increment), ends unconverged and is counted
+#: (``solve_failures``, ``solve_budget_cuts``), so no setting can hang a step.
+_WORK_MIN = 50_000
+_WORK_PER_S = 2_000_000
+_SOLVE_WORK = 40
 #: Root-finding steps (at most) that cut an increment back to the length where the drive balances the wall.
 _BISECTIONS = 10
 #: Largest change of the tip's reaction against growth over one increment, as a fraction of p pi r^2.
@@ -604,7 +607,7 @@ class QuasiStaticSim(GrowingTube):
         dl = dl_max
         cut = False
         while remaining > 1e-12:
-            dl = min(dl, remaining)
+            dl = min(dl, remaining) if self._work_left > 0 else remaining  # (the budget is spent: the rest at once)
             start = self._snapshot()
             f0 = self.tip_force
             self._retry_ok, self._retry_wanted = dl > dl_min and self._work_left > 0, False
