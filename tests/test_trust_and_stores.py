@@ -119,6 +119,19 @@ def test_a_models_env_file_cannot_name_a_model_to_load(crafted, tmp_path):
     assert not marker.exists()
 
 
+def test_a_training_config_cannot_name_a_model_to_load(crafted, tmp_path):
+    """A config's residual rule naming the crafted model with trust: refused when the config is read."""
+    from evertgym.agents.train import load_config
+
+    model, marker = crafted
+    cfg = tmp_path / "c.toml"
+    cfg.write_text('env_id = "evertgym/UBend-v0"\nalgo = "ppo"\nn_timesteps = 128\nzoo = false\n'
+                   f'residual = {{ name = "agent", path = "{model}", trust = true }}\n')
+    with pytest.raises(ValueError, match="residual"):
+        load_config(cfg)
+    assert not marker.exists()
+
+
 def test_trust_model_with_a_zip_that_is_not_a_model_is_one_line(tmp_path, capsys):
     junk = tmp_path / "junk.zip"
     import zipfile
@@ -253,6 +266,34 @@ def test_our_own_store_is_still_opened_and_an_unstamped_one_is_stamped(tmp_path)
         store.add(specs[1], fake_trial(specs[1]))
         assert len(store.results()) == 2
     assert sqlite_header(tmp_path / "s.sqlite")[1] == APPLICATION_ID
+
+
+def test_a_store_killed_before_its_first_checkpoint_is_still_ours(tmp_path):
+    """A store written by a release before the stamp, its writer killed with the schema and rows still in
+    the WAL file: identified from a copy (the originals untouched), then opened with every row."""
+    import subprocess
+
+    path = tmp_path / "killed.sqlite"
+    script = (
+        "import sqlite3, os\n"
+        f"db = sqlite3.connect({str(path)!r}, isolation_level=None)\n"
+        "db.execute('PRAGMA journal_mode=WAL')\n"
+        "db.execute('PRAGMA wal_autocheckpoint=0')\n"
+        "db.execute('CREATE TABLE trials (key TEXT PRIMARY KEY, design_name TEXT NOT NULL, group_name TEXT NOT NULL, seed INTEGER "
+        "NOT NULL, trial_index INTEGER NOT NULL, success INTEGER NOT NULL, spec_json TEXT NOT NULL, result_json TEXT NOT NULL, "
+        "meta_json TEXT NOT NULL, wall_s REAL, finished_at TEXT NOT NULL, checksum TEXT)')\n"
+        "db.execute('PRAGMA user_version=1')\n"
+        "os._exit(0)\n"  # no close: no checkpoint
+    )
+    subprocess.run([sys.executable, "-c", script], check=True)
+    assert Path(str(path) + "-wal").stat().st_size > 0
+    from evertgym.scoring.store import ResultStore, identify_store
+
+    before = (path.read_bytes(), Path(str(path) + "-wal").read_bytes())
+    assert identify_store(path) == "unstamped"
+    assert (path.read_bytes(), Path(str(path) + "-wal").read_bytes()) == before
+    with ResultStore(path) as store:
+        assert len(store) == 0
 
 
 def test_a_row_without_or_with_a_malformed_checksum_names_the_store_and_row(tmp_path):

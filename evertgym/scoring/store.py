@@ -282,16 +282,38 @@ def sqlite_header(path: Path) -> tuple[int, int] | None:
 
 
 def read_schema(path: Path) -> dict[str, list[str]]:
-    """``{table: [columns]}`` of an SQLite file, opened immutable (read-only, no lock, no journal or
-    WAL file made: the file and its journal mode stay as they are)."""
+    """``{table: [columns]}`` of an SQLite file, read without writing to it (:func:`read_database`)."""
+    return read_database(path)[2]
+
+
+def read_database(path: Path) -> tuple[int, int, dict[str, list[str]]]:
+    """``(user_version, application_id, {table: [columns]})`` of an SQLite file, opened immutable
+    (read-only, no lock, no journal or WAL file made: the file and its journal mode stay as they are).
+    With a ``-wal`` file beside it
+    (a writer killed before its first checkpoint keeps the schema there), a copy of the two in a
+    temporary folder is read instead, so the originals are still never touched."""
+    import shutil
+    import tempfile
     from urllib.parse import quote
 
-    db = sqlite3.connect(f"file:{quote(str(path.resolve()))}?immutable=1", uri=True)
-    try:
-        tables = [t for (t,) in db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")]
-        return {t: [c[1] for c in db.execute(f"PRAGMA table_info({json.dumps(t)})")] for t in tables}
-    finally:
-        db.close()
+    wal = Path(str(path) + "-wal")
+    with tempfile.TemporaryDirectory() as tmp:
+        target = path.resolve()
+        if wal.is_file() and wal.stat().st_size > 0:
+            target = Path(tmp) / "copy.sqlite"
+            shutil.copyfile(path, target)
+            shutil.copyfile(wal, Path(tmp) / "copy.sqlite-wal")
+            uri = f"file:{quote(str(target))}?mode=ro"
+        else:
+            uri = f"file:{quote(str(target))}?immutable=1"
+        db = sqlite3.connect(uri, uri=True)
+        try:
+            tables = [t for (t,) in db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")]
+            schema = {t: [c[1] for c in db.execute(f"PRAGMA table_info({json.dumps(t)})")] for t in tables}
+            return (int(db.execute("PRAGMA user_version").fetchone()[0]), int(db.execute("PRAGMA application_id").fetchone()[0]),
+                    schema)
+        finally:
+            db.close()
 
 
 def identify_store(path: str | Path, flag: str | None = None) -> str:
@@ -322,10 +344,12 @@ def identify_store(path: str | Path, flag: str | None = None) -> str:
     if app != 0:
         raise ValueError(f"{name} is not an evertgym result store: an SQLite database of another application "
                          f"(application_id {app:#x}); {fix}")
-    try:
-        schema = read_schema(path)
+    try:  # (the header can lag behind a WAL file a writer left: the database as SQLite reads it decides)
+        version, app, schema = read_database(path)
     except sqlite3.DatabaseError as e:
         raise ValueError(f"{name} is not an evertgym result store: an unreadable SQLite database ({e}); {fix}") from None
+    if app == APPLICATION_ID and version == SCHEMA_VERSION:
+        return "ours"
     cols = schema.get("trials")
     if set(schema) != {"trials"} or cols is None or not set(COLUMNS[:-1]) <= set(cols) <= set(COLUMNS):
         what = "an optuna study" if {"studies", "version_info"} <= set(schema) else f"tables {sorted(schema)}"
