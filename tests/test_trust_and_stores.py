@@ -529,3 +529,41 @@ def test_step_after_the_end_of_an_episode_raises_until_reset():
         env.step(np.array([0.0], np.float32))
     env.reset(seed=1)
     env.step(np.array([0.0], np.float32))
+
+
+# ---- every CLI case: exit 2 and one line -----------------------------------------------------------
+def test_issue_57s_cli_cases_end_in_one_line_and_exit_2(tmp_path, capsys):
+    (tmp_path / "noise.bin").write_bytes(os.urandom(2048))
+    foreign = _foreign(tmp_path)
+    store = tmp_path / "ok.sqlite"
+    cases = [
+        (["score", "--sim", "[]"], "--sim"),
+        (["score", "--sim", '[["engine", "dynamic"]]'], "--sim"),
+        (["score", "--sim", '{"max_newton_iterations": 1.5}'], "max_newton_iterations"),
+        (["score", "--sim", '{"iterations": 2.5, "engine": "dynamic"}'], "iterations"),
+        (["score", "--sim", '{"solver_tolerance": 1e-9}'], "solver_tolerance"),
+        (["score", "--sim", '{"solver_tolerance": 1e-9, "max_newton_iterations": 10000}'], "solver_tolerance"),
+        (["score", "--db", str(foreign)], "foreign.sqlite"),
+        (["score", "--db", str(tmp_path / "noise.bin")], "noise.bin"),
+        (["score", "--db", str(store), "--wait", "nan"], "--wait"),
+        (["diagnose", "--sim", "[]"], "--sim"),
+        (["diagnose", "--sim", '{"max_newton_iterations": 1.5}'], "max_newton_iterations"),
+        (["reproduce", "ubend", "--radii", "30,30"], "--radii"),
+        (["reproduce", "ubend", "--reductions", "0.1,0.1"], "--reductions"),
+        (["reproduce", "ubend", "--db", str(foreign)], "foreign.sqlite"),
+        (["reproduce", "colon", "--sim", "[1]"], "--sim"),
+        (["reproduce", "colon", "--db", str(tmp_path / "noise.bin")], "noise.bin"),
+        (["eval", "operator", "--env", "evertgym/UBend-v0", "--db", str(foreign)], "foreign.sqlite"),
+        (["eval", "operator", "--env", "evertgym/UBend-v0", "--env-kwargs", '{"sim_config": []}'], "sim_config"),
+        (["eval", "operator", "--env", "evertgym/UBend-v0", "--env-kwargs", '{"sim_config": {"max_newton_iterations": 1.5}}'],
+         "max_newton_iterations"),
+        (["optimize", "--study", str(tmp_path / "noise.bin")], "noise.bin"),
+        (["optimize", "--study", str(store), "--db", str(store)], "same file"),
+        (["optimize", "--scene-params", '{"radius_mm": "x"}', "--study", str(tmp_path / "s1"), "--db", str(tmp_path / "d1")],
+         "radius_mm"),
+        (["optimize", "--sim", "[]"], "--sim"),
+        (["rollout", str(tmp_path / "noise.bin"), "--env", "evertgym/UBend-v0", "--out", str(tmp_path / "r.gif")], "noise.bin"),
+    ]
+    for argv, needle in cases:
+        _one_line_exit_2(argv, capsys, needle)
+    assert not (tmp_path / "s1").exists() and not (tmp_path / "d1").exists()
