@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, fields
+from numbers import Integral
 
-from evertgym._validate import check_int as _check_int
 from evertgym._validate import check_range as _check
 from evertgym.model.eversion import GROWTH_GAIN_M_PER_S_PER_PA, MAX_GROWTH_SPEED_M_PER_S
 
@@ -146,7 +146,9 @@ class SimConfig:
 
     def __post_init__(self) -> None:
         for name in ("iterations", "law_interval", "max_relax_steps", "friction_lag_iterations", "max_newton_iterations"):
-            _check_int(name, getattr(self, name), 0, 100000)  # counts: 1.5 is not a count (ranges below)
+            count = getattr(self, name)  # counts: 1.5 and true are not counts (their ranges are checked below)
+            if isinstance(count, bool) or not isinstance(count, Integral):
+                raise ValueError(f"{name} = {count!r:.80} is out of range: allowed integers (a count)")
         _check("segment_length_m", self.segment_length_m, 0.0005, 0.05, lo_open=False)
         _check("dt_s", self.dt_s, MIN_DT_S, 0.01)
         _check("damping", self.damping, 0.0, 1.0, lo_open=True)
