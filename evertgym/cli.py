@@ -313,9 +313,12 @@ def cmd_bench_env(args: argparse.Namespace) -> int:
 def _sim_overrides(text: str | None, extra: dict | None = None) -> dict:
     """``--sim`` JSON: SimConfig fields, checked (names, ranges, the engine they belong to) before work starts."""
     try:
-        sim = dict(json.loads(text)) if text else {}
+        sim = json.loads(text) if text else {}
     except (json.JSONDecodeError, TypeError, ValueError) as e:
-        raise CLIError(f"--sim = {text!r}: expected a JSON object of SimConfig fields ({e})") from None
+        raise CLIError(f"--sim = {text!r:.80}: expected a JSON object of SimConfig fields ({e})") from None
+    if not isinstance(sim, dict):
+        raise CLIError(f"--sim = {text!r:.80}: expected a JSON object of SimConfig fields, e.g. '{{\"engine\": \"dynamic\"}}', "
+                       f"got a JSON {type(sim).__name__}")
     from dataclasses import fields
 
     from evertgym.sim.config import SimConfig
@@ -325,7 +328,10 @@ def _sim_overrides(text: str | None, extra: dict | None = None) -> dict:
         raise CLIError(f"--sim: unknown SimConfig fields {unknown}")
     sim.update(extra or {})
     try:
-        SimConfig(**sim)
+        from evertgym.design import TubeDesign
+        from evertgym.sim.tube import check_buildable
+
+        check_buildable(TubeDesign(length_m=0.9), SimConfig(**sim))  # (the paper's 0.9 m body: the dynamic engine's work)
     except (TypeError, ValueError) as e:
         raise CLIError(f"--sim: {e}") from None
     return sim
@@ -343,6 +349,9 @@ def _number_list(text: str | None, flag: str, lo: float, hi: float, unit: str) -
         raise CLIError(f"{flag} = {text!r}: expected at least one number")
     for v in values:
         _check(flag, v, lo, hi, unit)
+    repeated = sorted({v for v in values if values.count(v) > 1})
+    if repeated:
+        raise CLIError(f"{flag} = {text!r}: {', '.join(f'{v:g}' for v in repeated)} given more than once: allowed distinct values")
     return values
 
 
@@ -381,6 +390,21 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     if args.plot:
         print(f"figure: {args.plot}")
     return 0
+
+
+def _stores(args: argparse.Namespace, *flags: str) -> None:
+    """``--wait`` for every store the command opens, and each of ``flags``' store identified (read-only)
+    before any work: a file that is not an evertgym store of this version is refused unchanged."""
+    from evertgym.cli_guard import check_store
+    from evertgym.scoring.store import set_default_wait
+
+    if not (math.isfinite(args.wait) and 0 <= args.wait <= 86400):
+        raise CLIError(f"--wait = {args.wait} is out of range: allowed [0, 86400] s")
+    set_default_wait(args.wait)
+    for flag in flags:
+        value = getattr(args, flag.lstrip("-").replace("-", "_"))
+        if value is not None:
+            check_store(flag, value)
 
 
 def _physics(sim: dict | None) -> str:
@@ -450,6 +474,7 @@ def cmd_reproduce_ubend(args: argparse.Namespace) -> int:
     from evertgym.experiments.paper import UBEND_RADII_MM, UBEND_REDUCTIONS
 
     sim = _sim_overrides(args.sim)
+    _stores(args, "--db")
     radii = _number_list(args.radii, "--radii", 20.0, 40.0, "mm") or UBEND_RADII_MM
     reductions = _number_list(args.reductions, "--reductions", 0.0, 0.5, "") or UBEND_REDUCTIONS
     result = reproduce_ubend(args.db, trials=args.trials, backend=args.backend, workers=args.workers, progress=not args.json,
@@ -457,7 +482,7 @@ def cmd_reproduce_ubend(args: argparse.Namespace) -> int:
     if args.plot:
         plot_ubend(result, args.plot)
     if args.json:
-        out = {"rows": result["rows"]}
+        out = {"rows": result["rows"], "unconverged_solves": result["solves"]["solve_failures"]}
         if result["solves"]["solves"]:  # the quasi-static engine's equilibrium solves and how many ended above tolerance
             out["solves"] = result["solves"]
         if args.anatomy:
@@ -469,11 +494,14 @@ def cmd_reproduce_ubend(args: argparse.Namespace) -> int:
     reds = sorted({r["reduction"] for r in result["rows"]})
     cell = {(r["reduction"], r["radius_mm"]): r for r in result["rows"]}
     print("U-bend at 3 kPa: successes / trials per inner radius (mm)")
-    print(f"{'design':>10} " + " ".join(f"{r:>6g}" for r in radii) + f" {'total':>6}")
+    print(f"{'design':>10} " + " ".join(f"{r:>6g}" for r in radii) + f" {'total':>6} {'unconverged':>11}")
     for red in reds:
         cells = [cell[(red, r)] for r in radii]
         name = "no bands" if red == 0 else f"3 x {round(red * 100)}%"
-        print(f"{name:>10} " + " ".join(f"{c['successes']:>3}/{c['trials']:<2}" for c in cells) + f" {sum(c['successes'] for c in cells):>6}")
+        print(f"{name:>10} " + " ".join(f"{c['successes']:>3}/{c['trials']:<2}" for c in cells) + f" {sum(c['successes'] for c in cells):>6}"
+              + f" {sum(c.get('unconverged_solves', 0) for c in cells):>11}")
+    print("unconverged: the quasi-static solves of the row's trials that ended above the tolerance (0: every outcome "
+          "is the physics', not the solver settings')")
     sv = result["solves"]
     if sv["solves"]:
         print(f"equilibrium solves: {sv['solves']}, ended above the tolerance: {sv['solve_failures']} "
@@ -495,20 +523,22 @@ def cmd_reproduce_colon(args: argparse.Namespace) -> int:
     from evertgym.experiments.paper import reproduce_colon
 
     sim = _sim_overrides(args.sim)
+    _stores(args, "--db")
     result = reproduce_colon(args.db, progress=not args.json, sim=sim or None)
     if args.plot:
         from evertgym.experiments.plots import plot_pressure_position
 
         plot_pressure_position(result["rows"], args.plot)
     if args.json:
-        keys = ("reduction", "passed", "stall_position_mm", "peak_pressure_kpa") + (("jam",) if args.anatomy else ())
+        keys = ("reduction", "passed", "stall_position_mm", "peak_pressure_kpa", "unconverged_solves") + (("jam",) if args.anatomy else ())
         print(dumps({"rows": [{k: r[k] for k in keys} for r in result["rows"]], "physics": _physics(sim)}))
         return 0
     print("Colon phantom, operator protocol (2 kPa, +0.5 kPa per 1 s stall, up to 8 kPa)")
     for r in result["rows"]:
         name = "no bands" if r["reduction"] == 0 else f"3 x {round(r['reduction'] * 100)}%"
         stall = "-" if r["stall_position_mm"] is None else f"{r['stall_position_mm']:.0f} mm"
-        print(f"{name:>10}: passed={r['passed']} stall={stall} peak={r['peak_pressure_kpa']:.2f} kPa")
+        print(f"{name:>10}: passed={r['passed']} stall={stall} peak={r['peak_pressure_kpa']:.2f} kPa "
+              f"unconverged solves={r.get('unconverged_solves', 0)}")
         if args.anatomy and r["jam"]:
             j = r["jam"]
             print(f"{'':>12}jam: tip {j['heading_error_deg']:+.1f} deg off the channel, wall pushes back {j['tip_axial_force_n']:.2f} N "
@@ -535,6 +565,14 @@ def _policy_arg(text: str) -> dict:
         raise CLIError(f"--policy: {e}") from None
 
 
+def _warn_unconverged(rows: list[dict]) -> None:
+    """One line when any trial had a solve that ended above the tolerance: its outcome may be the solver's."""
+    trials = sum(r.get("trials_unconverged", 0) for r in rows)
+    if trials:
+        print(f"warning: {trials} trial(s) had {sum(r.get('unconverged_solves', 0) for r in rows)} unconverged solve(s): their outcomes "
+              "may depend on the solver settings (--sim), not the physics; see docs/robustness.md")
+
+
 def _differences(rows: list[dict], names: list[str]) -> list[dict]:
     """The first of ``names`` against each other one: success-rate difference with its
     Newcombe 95% interval and verdict (:func:`evertgym.scoring.stats.compare_rates`)."""
@@ -559,7 +597,7 @@ def cmd_score(args: argparse.Namespace) -> int:
     from evertgym.cli_guard import check_score_flags
     from evertgym.design import TubeDesign
     from evertgym.experiments.sweep import design_from_flags, plot_summary, sweep_specs
-    from evertgym.experiments.trial import run_trial
+    from evertgym.experiments.trial import run_trial, trusted_run_trial
     from evertgym.scoring.runner import run_trials
     from evertgym.scoring.stats import summarize
     from evertgym.scoring.store import ResultStore
@@ -579,11 +617,13 @@ def cmd_score(args: argparse.Namespace) -> int:
     episode = {"max_s": args.max_s, "band_offset_mm": [-args.band_jitter_mm, args.band_jitter_mm], "entry_offset_mm": [-5.0, 5.0],
                "sim": _sim_overrides(args.sim)}
     policy = check_score_flags(args, designs, params, episode, _policy_arg(args.policy))
+    _stores(args, "--db")
     specs = sweep_specs(designs, {"family": args.scene, "params": params}, args.scenes, args.trials, policy, episode)
     Path(args.db).parent.mkdir(parents=True, exist_ok=True)
     with ResultStore(args.db) as store:
         kw = {"address": args.address} if args.address else {"workers": args.workers}
-        records = run_trials(specs, run_trial, store, backend=args.backend, progress=not args.json, **kw)
+        trial_fn = trusted_run_trial if args.trust_model else run_trial  # trust from the flag, never from the spec
+        records = run_trials(specs, trial_fn, store, backend=args.backend, progress=not args.json, **kw)
     rows = summarize(records, by="design_name")
     differences = _differences(rows, list(designs))
     policy = _policy_arg(args.policy)
@@ -594,20 +634,24 @@ def cmd_score(args: argparse.Namespace) -> int:
         plot_summary(rows, args.plot, title=f"{scene_text}; policy {policy_text}; "
                                             f"{args.scenes} scenes x {args.trials} trials per design")
     if args.json:
-        print(dumps({"rows": rows, "differences": differences, "physics": _physics(episode["sim"])}, default=float))
+        print(dumps({"rows": rows, "differences": differences, "physics": _physics(episode["sim"]),
+                     "unconverged_solves": sum(r["unconverged_solves"] for r in rows),
+                     "trials_unconverged": sum(r["trials_unconverged"] for r in rows)}, default=float))
         return 0
     print(f"policy: {policy_text}")
     print(f"scene:  {scene_text}, seeds 0-{args.scenes - 1}; {args.trials} trials per scene "
           f"(bands +/- {args.band_jitter_mm:g} mm, entry +/- 5 mm), limit {args.max_s:g} s")
     print(f"designs: {len(designs)}, {len(specs)} trials in all")
     width = max([14] + [len(name) for name in designs])
-    print(f"{'design':>{width}} {'n':>5} {'success':>8} {'95% CI':>15} {'time_s':>7} {'peak_kpa':>9} {'max_force_n':>11}   (medians)")
+    print(f"{'design':>{width}} {'n':>5} {'success':>8} {'95% CI':>15} {'time_s':>7} {'peak_kpa':>9} {'max_force_n':>11} "
+          f"{'unconverged':>11}   (medians; unconverged: solves above the tolerance, in all trials)")
     by_name = {r["design_name"]: r for r in rows}
     for r in (by_name[name] for name in designs if name in by_name):  # in the order given: the first is the reference
         t, pk, f = ("-" if r.get(k) is None else f"{r[k]:.2f}" for k in ("median_time_s", "median_peak_pressure_kpa", "median_max_contact_force_n"))
         ci = f"[{r['success_ci_lo']:.2f}, {r['success_ci_hi']:.2f}]"
-        print(f"{r['design_name']:>{width}} {r['n']:>5} {r['success_rate']:>8.2f} {ci:>15} {t:>7} {pk:>9} {f:>11}")
+        print(f"{r['design_name']:>{width}} {r['n']:>5} {r['success_rate']:>8.2f} {ci:>15} {t:>7} {pk:>9} {f:>11} {r['unconverged_solves']:>11}")
     _print_differences(differences)
+    _warn_unconverged(rows)
     print(f"store: {args.db}" + (f"; plot: {args.plot}" if args.plot else ""))
     print(_physics(episode["sim"]))
     return 0
@@ -622,8 +666,9 @@ def cmd_optimize(args: argparse.Namespace) -> int:
         raise CLIError(f"--scene-params = {args.scene_params!r}: malformed JSON: {e}") from None
     from evertgym.cli_guard import check_optimize_flags
 
-    check_optimize_flags(args)
     sim = _sim_overrides(args.sim)
+    check_optimize_flags(args, params, sim)
+    _stores(args)
     out = optimize_bands(
         {"family": args.scene, "params": params}, args.study, args.db, n_trials=args.trials, n_scenes=args.scenes,
         trials_per_scene=args.trials_per_scene, held_out_scenes=args.held_out, budget_kpa=args.budget_kpa,
@@ -638,8 +683,10 @@ def cmd_optimize(args: argparse.Namespace) -> int:
     print(f"best after {out['trials']} designs: {_best_design_text(out['best_design'], out['best_params'])}")
     print("held-out scenes:")
     for r in out["held_out"]:
-        print(f"  {r['design_name']:>24}: success {r['success_rate']:.2f} [{r['success_ci_lo']:.2f}, {r['success_ci_hi']:.2f}] (n={r['n']})")
+        print(f"  {r['design_name']:>24}: success {r['success_rate']:.2f} [{r['success_ci_lo']:.2f}, {r['success_ci_hi']:.2f}] (n={r['n']}), "
+              f"unconverged solves {r.get('unconverged_solves', 0)}")
     _print_differences(out["differences"])
+    _warn_unconverged(out["held_out"])
     print(_physics(sim))
     return 0
 
@@ -690,6 +737,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
     from evertgym.env.eversion_env import HELD_OUT_SEED_BASE, VALIDATION_SEED_BASE, engine_of
 
     env_kwargs = check_eval_flags(args)
+    _stores(args)
     seed_base = VALIDATION_SEED_BASE if args.validation else HELD_OUT_SEED_BASE
     rows = evaluate(args.policies, args.env, args.episodes, env_kwargs=env_kwargs, workers=args.workers,
                     trust=args.trust_model, progress=not args.json, seed_base=seed_base, db=args.db,
@@ -717,6 +765,10 @@ def cmd_eval(args: argparse.Namespace) -> int:
         )
     print("bend_peak_kpa: peak measured pressure with the tip in the scene's bend (mean over the episodes that reached it); "
           "peak<bend: episodes whose peak came before the bend (start-up or approach)")
+    for r in rows:
+        if r.get("unconverged_solves"):
+            print(f"warning: {r['policy']}: {r.get('episodes_unconverged')} episode(s) had {r['unconverged_solves']} unconverged solve(s): "
+                  "their outcomes may depend on the solver settings, not the physics")
     if args.check_outcomes:
         checks = ", ".join(f"{name} / {d:g}" for name, d in OUTCOME_CHECKS)
         print(f"outcome check: every episode replayed with {checks}; an undecided episode's outcome moves with them")
@@ -827,6 +879,7 @@ def build_parser() -> argparse.ArgumentParser:
     ru.add_argument("--sim", default=None, help='SimConfig overrides as JSON, e.g. \'{"engine": "dynamic"}\'')
     ru.add_argument("--radii", default=None, help="inner radii (mm) to run, comma-separated (default: the paper's 40..20 mm)")
     ru.add_argument("--reductions", default=None, help="band reductions to run, comma-separated, 0 = no bands (default: 0,0.1,0.2,0.3)")
+    ru.add_argument("--wait", type=float, default=60.0, help="seconds to wait for a store another process holds locked")
     ru.set_defaults(func=cmd_reproduce_ubend)
 
     bd = _sub(sub, "bands", "the calibrated bend model: fit its candidates and rank them by likelihood")
@@ -851,6 +904,7 @@ def build_parser() -> argparse.ArgumentParser:
     rc.add_argument("--plot", default=None, help="write the pressure-position plot (PNG) here")
     rc.add_argument("--anatomy", action="store_true", help="also where a stalled robot jammed (--json: each row's 'jam')")
     rc.add_argument("--sim", default=None, help='SimConfig overrides as JSON, e.g. \'{"engine": "dynamic"}\'')
+    rc.add_argument("--wait", type=float, default=60.0, help="seconds to wait for a store another process holds locked")
     rc.set_defaults(func=cmd_reproduce_colon)
 
     rv = _sub(rep_sub, "eversion", "Exp 4: minimum eversion pressure per band reduction, simulated")
@@ -894,6 +948,7 @@ def build_parser() -> argparse.ArgumentParser:
     sc.add_argument("--plot", default=None, help="write the success-rate plot (PNG) here")
     sc.add_argument("--sim", default=None, help='SimConfig overrides as JSON, e.g. \'{"engine": "dynamic"}\' (default: the quasi-static engine)')
     sc.add_argument("--json", action="store_true", help=_JSON_HELP)
+    sc.add_argument("--wait", type=float, default=60.0, help="seconds to wait for a store another process holds locked")
     sc.set_defaults(func=cmd_score)
 
     op = _sub(sub, "optimize", "search band designs (optuna) and compare the best with the paper's on held-out scenes")
@@ -910,6 +965,7 @@ def build_parser() -> argparse.ArgumentParser:
     op.add_argument("--backend", choices=["process", "serial", "dask"], default="process", help=_BACKEND_HELP)
     op.add_argument("--sim", default=None, help='SimConfig overrides as JSON, e.g. \'{"engine": "dynamic"}\' (default: the quasi-static engine)')
     op.add_argument("--json", action="store_true", help=_JSON_HELP)
+    op.add_argument("--wait", type=float, default=60.0, help="seconds to wait for a store another process holds locked")
     op.set_defaults(func=cmd_optimize)
 
     tr = _sub(sub, "train", "train a pressure policy from a config in agents/")
@@ -946,6 +1002,7 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--check-outcomes", action="store_true",
                     help="also replay every episode with the solver tolerance / 10 and the growth increment / 2 (quasi-static "
                          "engine; 3x the time) and report the episodes whose outcome moves with them (undecided)")
+    ev.add_argument("--wait", type=float, default=60.0, help="seconds to wait for a store another process holds locked")
     ev.set_defaults(func=cmd_eval)
 
     po = _sub(sub, "policies", "the shipped trained policies: env, observations, training config, held-out success")

@@ -148,6 +148,24 @@ def check_output_file(flag: str, path: str, suffixes: tuple[str, ...] = ()) -> P
     return p
 
 
+def check_store(flag: str, path: str) -> Path:
+    """A result store we may write: a new file in a writable folder, or an evertgym store of this
+    schema version, found without writing to it (:func:`~evertgym.scoring.store.identify_store`);
+    anything else is refused in one line and left unchanged."""
+    from evertgym.scoring.store import identify_store
+
+    identify_store(path, flag)  # (before the writability test below, which opens it for appending)
+    return check_output_file(flag, path)
+
+
+def check_study(flag: str, path: str | Path) -> Path:
+    """An optuna study file, identified without writing to it (:func:`~evertgym.scoring.store.identify_study`)."""
+    from evertgym.scoring.store import identify_study
+
+    identify_study(path, flag)
+    return Path(path)
+
+
 def check_env_id(flag: str, env_id: str) -> str:
     """A registered Gymnasium id."""
     import gymnasium as gym
@@ -182,23 +200,42 @@ def warn_remote_dask(address: str, trusted: bool) -> None:
 def check_policy(flag: str, desc: Any, trust: bool) -> None:
     """A policy description that will load: baselines are built (their parameters checked);
     a saved model must exist and be a shipped policy unless ``trust`` (nothing is unpickled)."""
-    from evertgym.agents.policies import make_policy, vecnormalize_path
+    from evertgym.agents.policies import make_policy, refuse_trust_field, vecnormalize_path
     from evertgym.agents.trust import check_trusted
 
     d = {"name": "agent", "path": desc} if isinstance(desc, str) and desc.endswith(".zip") else desc
     if isinstance(d, str) and ".zip:" in d:
         d = {"name": "agent", "path": d.partition(".zip:")[0] + ".zip"}
+    if isinstance(d, dict):  # trust comes from the flag only, never from the description
+        refuse_trust_field(d, flag)
     if isinstance(d, dict) and d.get("name") == "agent":
         path = check_input_file(flag, str(d.get("path", "")))
         stats = vecnormalize_path(path)
         for f in (path, stats) if stats.exists() else (path,):
-            check_trusted(f, trust or bool(d.get("trust", False)))
+            check_trusted(f, trust)
+        if trust:
+            check_model_archive(flag, path)
         require("a trained policy", "stable_baselines3", "torch")  # here, not in a trial's worker
         return
     try:
         make_policy(d)
     except ValueError as e:
         raise ValueError(f"{flag} = {desc!r}: {e}") from None
+
+
+def check_model_archive(flag: str, path: Path) -> None:
+    """A trusted model file is still checked to be a stable-baselines3 archive before it is loaded:
+    a zip with a ``data`` member and a ``policy.pth`` (one line otherwise, not a loader's traceback)."""
+    import zipfile
+
+    try:
+        with zipfile.ZipFile(path) as z:
+            names = set(z.namelist())
+    except (zipfile.BadZipFile, OSError) as e:
+        raise ValueError(f"{flag} = {str(path)!r} is not a saved model: not a zip archive ({e})") from None
+    missing = sorted({"data", "policy.pth"} - names)
+    if missing:
+        raise ValueError(f"{flag} = {str(path)!r} is not a saved stable-baselines3 model: the zip has no {', '.join(missing)}")
 
 
 def check_eval_flags(args: argparse.Namespace) -> dict:
@@ -214,7 +251,7 @@ def check_eval_flags(args: argparse.Namespace) -> dict:
     for desc in args.policies:
         check_policy("policy", desc, args.trust_model)
     if getattr(args, "db", None) is not None:
-        check_output_file("--db", args.db)
+        check_store("--db", args.db)
     if getattr(args, "check_outcomes", False):
         from evertgym.agents.evaluate import outcome_check_kwargs
 
@@ -262,7 +299,7 @@ def check_rollout_flags(args: argparse.Namespace) -> dict:
 def check_score_flags(args: argparse.Namespace, designs: dict[str, dict], params: Any, episode: dict, policy: dict) -> dict:
     """``evertgym score``: every flag, each design in the scene with the band jitter, counts,
     workers, store, cluster and policy, before any trial.  Returns the policy description
-    (with ``"trust": True`` under ``--trust-model``)."""
+    (``--trust-model`` reaches the trials through the trial function, never through it)."""
     from evertgym.env import EversionEnv
     from evertgym.limits import MAX_SCENES, MAX_SPECS, MAX_TRIALS_PER_SCENE, check_workers
 
@@ -280,22 +317,41 @@ def check_score_flags(args: argparse.Namespace, designs: dict[str, dict], params
     for name, design in designs.items():
         try:  # the same constructor the trials use, without running one
             EversionEnv(scene={"family": args.scene, "params": params}, design=design, max_episode_s=args.max_s,
-                        band_offset_mm=tuple(episode["band_offset_mm"]), entry_offset_mm=tuple(episode["entry_offset_mm"]))
+                        band_offset_mm=tuple(episode["band_offset_mm"]), entry_offset_mm=tuple(episode["entry_offset_mm"]),
+                        sim_config=episode.get("sim") or None)
         except ValueError as e:
             raise ValueError(f"design {name!r} with --scene {args.scene!r}: {e}") from None
     check_workers(args.workers, args.force_workers, "--workers")
-    check_output_file("--db", args.db)
+    check_store("--db", args.db)
     if args.address:
         warn_remote_dask(args.address, args.trust_cluster)
     check_policy("--policy", policy, args.trust_model)
-    return {**policy, "trust": True} if args.trust_model and policy.get("name") == "agent" else policy
+    return policy
 
 
-def check_optimize_flags(args: argparse.Namespace) -> None:
-    """``evertgym optimize``: counts and output files before the study starts."""
+def check_optimize_flags(args: argparse.Namespace, params: Any = None, sim: dict | None = None) -> None:
+    """``evertgym optimize``: counts, the pressure budget, the scene with its parameters and the
+    ``--sim`` settings (the paper's design built in the scene, as every trial will be), the study
+    and the store, before the study starts (nothing is written to either on a refusal)."""
+    from evertgym.env import EversionEnv
+    from evertgym.experiments.optimize import band_design
+
     for flag, v, hi in (("--trials", args.trials, 10_000), ("--scenes", args.scenes, 1000),
                         ("--trials-per-scene", args.trials_per_scene, 1000), ("--held-out", args.held_out, 1000)):
         if not 1 <= v <= hi:
             raise ValueError(f"{flag} = {v} is out of range: allowed [1, {hi}]")
-    check_output_file("--study", args.study)
-    check_output_file("--db", args.db)
+    if not (math.isfinite(args.budget_kpa) and 0 < args.budget_kpa <= 8.0):
+        raise ValueError(f"--budget-kpa = {args.budget_kpa} is out of range: allowed (0, 8] kPa")
+    try:  # the paper's design and the bare robot, in the scene, as the trials build them
+        for n in (3, 0):
+            EversionEnv(scene={"family": args.scene, "params": {} if params is None else params},
+                        design=band_design(n, 50.0, 0.1, 300.0, 40.0, 900.0), max_episode_s=20.0,
+                        band_offset_mm=(-25.0, 25.0), entry_offset_mm=(-5.0, 5.0), sim_config=sim or None)
+    except ValueError as e:
+        raise ValueError(f"--scene {args.scene!r} with --scene-params {json.dumps(params)[:80]}: {e}") from None
+    study, db = check_output_file("--study", args.study), check_output_file("--db", args.db)
+    if study.resolve() == db.resolve() or (study.exists() and db.exists() and os.path.samefile(study, db)):
+        raise ValueError(f"--study = {args.study!r} and --db = {args.db!r} are the same file: allowed two files "
+                         "(the optuna study and the result store each have their own tables)")
+    check_study("--study", study)
+    check_store("--db", args.db)

@@ -51,6 +51,11 @@ def _exact(value):
     return str(value)
 
 
+#: Info keys added after digests were first saved, derived from hashed ones (``solve_failures``): left out,
+#: so a digest stays comparable with one made before them.
+_DERIVED_INFO = ("unconverged_solves", "solve_budget_cuts")
+
+
 def digest(env_id: str, engine: str, steps: int, sim: dict | None = None) -> str:
     """SHA-256 of ``steps`` random-action steps of ``env_id`` on ``engine`` (see the module's docstring);
     ``sim``: further SimConfig fields."""
@@ -69,7 +74,7 @@ def digest(env_id: str, engine: str, steps: int, sim: dict | None = None) -> str
         sim = env.unwrapped.sim
         h.update(np.asarray(obs, np.float64).tobytes())
         h.update(np.float64(reward).tobytes())
-        h.update(json.dumps(_exact(info), sort_keys=True).encode())
+        h.update(json.dumps(_exact({k: v for k, v in info.items() if k not in _DERIVED_INFO}), sort_keys=True).encode())
         h.update(np.asarray(sim.centreline(), np.float64).tobytes())
         if term or trunc:
             h.update(json.dumps(_exact(list(getattr(sim, "events", []))), sort_keys=True).encode())

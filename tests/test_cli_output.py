@@ -18,7 +18,8 @@ def test_score_says_which_policy_scene_and_counts(tmp_path, capsys):
     assert (tmp_path / "s.png").stat().st_size > 0
     assert main([*argv, "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
-    assert set(out) == {"rows", "differences", "physics"} and out["physics"].startswith("physics: quasi-static engine")
+    assert set(out) == {"rows", "differences", "physics", "unconverged_solves", "trials_unconverged"}
+    assert out["physics"].startswith("physics: quasi-static engine")
 
 
 def test_rollout_prints_a_summary_and_json_keeps_every_command(tmp_path, capsys, monkeypatch):

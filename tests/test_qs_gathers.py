@@ -126,7 +126,9 @@ def test_the_solved_wall_pieces_are_those_the_numpy_code_chose():
     rng = np.random.default_rng(7)
     checked = moved = 0
     for step in range(60):
-        env.step(rng.uniform(env.action_space.low, env.action_space.high).astype(np.float32))
+        _, _, term, trunc, _ = env.step(rng.uniform(env.action_space.low, env.action_space.high).astype(np.float32))
+        if term or trunc:  # (step() after the end of an episode raises)
+            break
         if step % 10:
             continue
         nodes, _ = sim._all_nodes()
@@ -251,7 +253,9 @@ def test_a_solves_setup_in_one_call_is_the_setup_of_the_separate_calls():
     rng = np.random.default_rng(7)
     checked = entries = 0
     for step in range(60):
-        env.step(rng.uniform(env.action_space.low, env.action_space.high).astype(np.float32))
+        _, _, term, trunc, _ = env.step(rng.uniform(env.action_space.low, env.action_space.high).astype(np.float32))
+        if term or trunc:  # (step() after the end of an episode raises)
+            break
         if step % 10:
             continue
         nodes, theta = sim._all_nodes()

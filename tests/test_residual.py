@@ -102,7 +102,7 @@ def test_a_trained_residual_model_is_played_with_its_rule(tmp_path):
     policy = make_policy(str(model), trust=True)
     assert policy.residual == {"rule": "tuned", "scale": 1e-6}
     assert policy.env_observation_shape == (15,) and policy.model.observation_space.shape == (16,)
-    rows = evaluate([{"name": "agent", "path": str(model), "trust": True}, "tuned"], "evertgym/UBend-v0", 2,
+    rows = evaluate([{"name": "agent", "path": str(model)}, "tuned"], "evertgym/UBend-v0", 2, trust=True,
                     env_kwargs={"max_episode_s": 3.0})
     assert rows[0]["mean_peak_pressure_kpa"] == pytest.approx(rows[1]["mean_peak_pressure_kpa"], abs=1e-3)
     assert rows[0]["mean_max_contact_force_n"] == pytest.approx(rows[1]["mean_max_contact_force_n"], abs=1e-3)

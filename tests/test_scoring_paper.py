@@ -97,11 +97,12 @@ def test_reproduce_ubend_json_contract(tmp_path, capsys):
     out = json.loads(capsys.readouterr().out)
     assert len(out["rows"]) == 36
     for r in out["rows"]:
-        assert set(r) == {"reduction", "radius_mm", "trials", "successes"}
+        assert set(r) == {"reduction", "radius_mm", "trials", "successes", "unconverged_solves"}
         assert r["trials"] == 1 and r["successes"] in (0, 1)
     assert {r["reduction"] for r in out["rows"]} == {0.0, 0.1, 0.2, 0.3}
     # the default (quasi-static) engine adds its equilibrium solves and how many ended above the tolerance
-    assert set(out) == {"rows", "solves", "physics"}  # and the physics it was made with (issue 26)
+    assert set(out) == {"rows", "solves", "physics", "unconverged_solves"}  # and the physics it was made with (issue 26)
+    assert out["unconverged_solves"] == out["solves"]["solve_failures"] == sum(r["unconverged_solves"] for r in out["rows"])
     assert out["solves"]["solves"] > 0 and 0 <= out["solves"]["solve_failures"] <= out["solves"]["solves"]
     # --anatomy adds the failed trials' jam anatomy from the same store, without rerunning
     assert main(["reproduce", "ubend", "--json", "--anatomy", "--trials", "1", "--db", str(tmp_path / "u.sqlite"), "--backend", "serial"]) == 0
@@ -130,7 +131,7 @@ def test_colon_specs_and_json_contract(tmp_path, capsys):
     out = json.loads(capsys.readouterr().out)
     assert [r["reduction"] for r in out["rows"]] == [0.0, 0.1]
     for r in out["rows"]:
-        assert set(r) == {"reduction", "passed", "stall_position_mm", "peak_pressure_kpa"}
+        assert set(r) == {"reduction", "passed", "stall_position_mm", "peak_pressure_kpa", "unconverged_solves"}
         assert r["peak_pressure_kpa"] <= 8.0 + 1e-9
     bare = out["rows"][0]
     # the paper's case study: the bare robot stalls at the bend even at 8 kPa...

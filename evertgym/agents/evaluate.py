@@ -28,11 +28,12 @@ from evertgym.scoring.store import ResultStore
 
 
 @functools.lru_cache(maxsize=4)
-def _policy_and_env(policy_json: str, env_id: str, kwargs_json: str) -> tuple[Policy, Any]:
-    """One policy and env per (policy, env) in each worker: a model loads once, not per episode."""
+def _policy_and_env(policy_json: str, env_id: str, kwargs_json: str, trust: bool = False) -> tuple[Policy, Any]:
+    """One policy and env per (policy, env) in each worker: a model loads once, not per episode.
+    ``trust`` is the caller's (never the description's: :func:`make_policy` refuses a ``"trust"`` field)."""
     import json
 
-    policy = make_policy(json.loads(policy_json))  # trust travels in the description
+    policy = make_policy(json.loads(policy_json), trust=trust)
     # observation flags a trained model needs; they do not change the physics (its other
     # training kwargs, e.g. a randomised lag, do not apply: the evaluation's are the same for all)
     env = gym.make(env_id, **{**json.loads(kwargs_json), **getattr(policy, "observation_kwargs", {})})
@@ -43,14 +44,19 @@ def _policy_and_env(policy_json: str, env_id: str, kwargs_json: str) -> tuple[Po
     return policy, env
 
 
-def episode_trial(spec: TrialSpec) -> dict:
+def episode_trial(spec: TrialSpec, trust: bool = False) -> dict:
     """Trial function of one evaluation episode: ``spec.scene`` is ``{"family": env id,
     "params": env kwargs, "seed": episode seed}``; episode and scene seed are ``spec.seed``.
     The episode's info, plus ``stall_position_mm``: the insertion length (mm) where a failed
     episode ended, ``None`` for a success (the scoring store's trial-result contract)."""
-    policy, env = _policy_and_env(canonical_json(spec.policy), spec.scene["family"], canonical_json(spec.scene["params"]))
+    policy, env = _policy_and_env(canonical_json(spec.policy), spec.scene["family"], canonical_json(spec.scene["params"]), trust)
     info = run_episode(env, policy, spec.seed, options={"scene_seed": spec.seed})
     return {**info, "stall_position_mm": None if info["success"] else float(info["insertion_length_mm"])}
+
+
+def trusted_episode_trial(spec: TrialSpec) -> dict:
+    """:func:`episode_trial` with ``trust=True``, sent to the workers when the caller opted in."""
+    return episode_trial(spec, trust=True)
 
 
 def _bend_columns(infos: list[dict]) -> dict:
@@ -75,6 +81,11 @@ def _identities(descs: list[dict], env_kwargs: dict | None) -> list[dict]:
             ident["model_sha256"] = sha256_of(resolve_policy_path(d["path"] if name == "agent" else name))
         out.append(ident)
     return out
+
+
+def _unconverged(info: dict) -> int:
+    """An episode's quasi-static solves that ended above the tolerance (an episode stored before the key: its failures)."""
+    return int(info.get("unconverged_solves", info.get("solve_failures", 0)) or 0)
 
 
 def _label(desc: str | dict) -> str:
@@ -119,7 +130,8 @@ def evaluate(policies: list[str | dict], env_id: str, episodes: int, env_kwargs:
              seed_base: int = HELD_OUT_SEED_BASE, workers: int = 1, trust: bool = False,
              progress: bool = False, db: str | Path | None = None, check_outcomes: bool = False) -> list[dict]:
     """One row per policy: success rate (Wilson 95%), mean time to goal, peak pressure and
-    max contact force over ``episodes`` episodes whose seeds (and scene seeds) are
+    max contact force (and ``unconverged_solves``, ``episodes_unconverged``: the quasi-static solves
+    that ended above the tolerance and the episodes that had any) over ``episodes`` episodes whose seeds (and scene seeds) are
     ``seed_base + i``, the same for every policy.  ``tuned`` is the operator tuned on
     ``env_id`` (:func:`evertgym.agents.policies.for_env`).  ``workers > 1`` spreads the episodes
     over that many processes; every episode is seeded, so the rows do not change.
@@ -148,8 +160,7 @@ def evaluate(policies: list[str | dict], env_id: str, episodes: int, env_kwargs:
         if d.get("name") not in models:
             make_policy(d)
         else:  # a trained model meets its env's observations here, not in a worker's traceback
-            policy, env = _policy_and_env(canonical_json({**d, **({"trust": True} if trust else {})}), env_id,
-                                          canonical_json(dict(env_kwargs or {})))
+            policy, env = _policy_and_env(canonical_json(d), env_id, canonical_json(dict(env_kwargs or {})), trust)
             check_observation_shape(policy, env, _label(desc))
     plays = [env_kwargs] + (outcome_check_kwargs(env_kwargs) if check_outcomes else [])
     results = [_play(policies, descs, env_id, episodes, kw, seed_base, workers, trust, progress, db) for kw in plays]
@@ -169,6 +180,9 @@ def evaluate(policies: list[str | dict], env_id: str, episodes: int, env_kwargs:
             "mean_peak_pressure_kpa": float(np.mean([i["peak_pressure_kpa"] for i in episode_infos])),
             "mean_max_contact_force_n": float(np.mean([i["max_contact_force_n"] for i in episode_infos])),
             **_bend_columns(episode_infos),
+            # the quasi-static solves that ended above the tolerance, and the episodes that had any
+            "unconverged_solves": sum(_unconverged(i) for i in episode_infos),
+            "episodes_unconverged": sum(1 for i in episode_infos if _unconverged(i)),
         }
         if check_outcomes:
             success = [[r[k][i]["success"] for r in results] for i in range(episodes)]
@@ -186,12 +200,13 @@ def _play(policies: list[str | dict], descs: list[dict], env_id: str, episodes: 
     from tqdm import tqdm
 
     identity = _identities(descs, env_kwargs) if db is not None else [{} for _ in policies]
-    # trust reaches only a saved model's loader: a rule or a shipped policy is the same episode with or
-    # without it, and its stored episodes are found either way
+    # trust reaches only a saved model's loader, through the trial function (never through the spec):
+    # the stored episodes are found with or without it
+    trial_fn = trusted_episode_trial if trust else episode_trial
     specs = [
         TrialSpec(design={}, design_name=env_id,
                   scene={"family": env_id, "params": dict(env_kwargs or {}), "seed": seed_base + i, **ident},
-                  policy={**d, **({"trust": True} if trust and d.get("name") == "agent" else {})}, seed=seed_base + i, index=i,
+                  policy=d, seed=seed_base + i, index=i,
                   group=_label(desc))
         for desc, d, ident in zip(policies, descs, identity) for i in range(episodes)
     ]
@@ -199,7 +214,7 @@ def _play(policies: list[str | dict], descs: list[dict], env_id: str, episodes: 
     if db is not None:
         with ResultStore(db) as store:
             try:
-                records = run_trials(specs, episode_trial, store, backend="process" if workers > 1 else "serial",
+                records = run_trials(specs, trial_fn, store, backend="process" if workers > 1 else "serial",
                                      workers=workers, progress=progress)
             except TrialsFailed as e:
                 f = e.failures[0]
@@ -207,7 +222,7 @@ def _play(policies: list[str | dict], descs: list[dict], env_id: str, episodes: 
             infos = {r.spec.key: r.result for r in records}
     else:
         backend = process_backend if workers > 1 else serial_backend
-        for spec, out in tqdm(backend(episode_trial, specs, min(workers, len(specs))), total=len(specs), desc="eval",
+        for spec, out in tqdm(backend(trial_fn, specs, min(workers, len(specs))), total=len(specs), desc="eval",
                               unit="episode", disable=not progress):
             if out.error is not None:
                 raise RuntimeError(f"policy {spec.group!r}, episode seed {spec.seed}: {out.error}")

@@ -15,7 +15,7 @@ from evertgym.agents.describe import for_env, make_baseline, policy_desc
 from evertgym.agents.residual import check_residual, combine, make_rule, with_base
 from evertgym.agents.tuned import shipped_dir
 
-__all__ = ["SB3Policy", "check_observation_shape", "for_env", "make_baseline", "make_policy", "model_meta", "observation_fix",
+__all__ = ["SB3Policy", "check_observation_shape", "for_env", "make_baseline", "make_policy", "model_meta", "observation_fix", "refuse_trust_field",
            "policy_cards", "policy_desc", "resolve_policy_path", "shipped_policies", "vecnormalize_path"]
 
 _CHECKPOINT = re.compile(r"(?P<prefix>.+)_(?P<steps>\d+)_steps")
@@ -251,15 +251,25 @@ def resolve_policy_path(name_or_path: str | Path) -> Path:
                      f"nor a shipped policy; shipped: {shipped_policies()}")
 
 
+def refuse_trust_field(desc: dict, field: str = "policy") -> None:
+    """One line if a policy description holds ``"trust"``: trust to unpickle a model comes only from
+    the person running the code (``trust=True``, ``--trust-model``), never from a spec, file or store."""
+    if "trust" in desc:
+        raise ValueError(f"{field} field 'trust' = {desc['trust']!r:.40} is not allowed: a description never turns on "
+                         "loading an untrusted model (model files are code); pass --trust-model at the command line or "
+                         "trust=True in Python")
+
+
 def make_policy(desc: dict | str, trust: bool = False) -> Policy:
     """``{"name": "constant", "pressure_kpa": 3}``, ``"operator"``, ``{"name": "agent", "path": ...,
     "deterministic": ...}`` or the path of a saved model, optionally with its action mode
     (``"model.zip:stochastic"``, ``"model.zip:deterministic"``), or a shipped policy by name
-    (``"colon_ppo"``).  A saved model loads only if it is a shipped policy or ``trust`` is set
-    (or the dict holds ``"trust": True``)."""
+    (``"colon_ppo"``).  A saved model loads only if it is a shipped policy or the caller sets
+    ``trust``; a description never carries trust (a ``"trust"`` field is refused: it is data,
+    and whoever wrote it is not the person running the code)."""
     desc = policy_desc(desc)
+    refuse_trust_field(desc)
     name = desc.pop("name", None)
-    trust = bool(desc.pop("trust", False)) or trust
     if name == "agent":
         return SB3Policy(desc["path"], desc.get("deterministic"), trust=trust)
     if name is None:

@@ -264,6 +264,8 @@ class EversionEnv(gym.Env):
         self.scene_ahead = scene_ahead
         self.rupture_pa = rupture_kpa * 1e3
         self.w = dict(progress=progress_weight, pressure=pressure_weight, contact=contact_weight, stall=stall_weight, success=success_weight)
+        if sim_config is not None and not isinstance(sim_config, (SimConfig, dict)):
+            raise ValueError(f"sim_config = {sim_config!r:.80} is not allowed: allowed a SimConfig, a dict of its fields or None")
         try:
             self.sim_config = sim_config if isinstance(sim_config, SimConfig) else SimConfig(**(sim_config or {}))
         except TypeError as e:  # an unknown field
@@ -285,6 +287,7 @@ class EversionEnv(gym.Env):
         self._low, self._high = np.array(low, np.float32), np.array(high, np.float32)
         self.observation_space = spaces.Box(self._low, self._high, dtype=np.float32)
         self._sim: EversionSim | None = None
+        self._ended = False
         self._scene: Scene | None = None
         self._fig = None
         self._renderer: FrameRenderer | None = None
@@ -344,8 +347,14 @@ class EversionEnv(gym.Env):
         return scene, design, base, config
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
-        super().reset(seed=seed)
+        if options is not None and not isinstance(options, dict):
+            raise ValueError(f"options = {options!r:.80} is not allowed: allowed a dict such as {{'scene_seed': 3}} or None")
         scene_seed = (options or {}).get("scene_seed")
+        if scene_seed is not None and (isinstance(scene_seed, (bool, np.bool_)) or not isinstance(scene_seed, (int, np.integer))
+                                       or scene_seed < 0):
+            raise ValueError(f"options['scene_seed'] = {scene_seed!r:.80} is not allowed: allowed an integer >= 0 (or None)")
+        scene_seed = None if scene_seed is None else int(scene_seed)
+        super().reset(seed=seed)
         # the last episode's simulator and scene go before the next are built, not after (the
         # colon's 2,000 wall shapes otherwise coexist for a moment, about 10 MB of peak memory)
         self._sim = self._scene = self._renderer = None
@@ -363,6 +372,7 @@ class EversionEnv(gym.Env):
         self._success = False
         self._ruptured = False
         self._outcome = "running"
+        self._ended = False
         self._terms = dict.fromkeys(_REWARD_TERMS, 0.0)
         self._charged_force = self._sim.max_contact_force
         self.episode_design = design
@@ -377,6 +387,8 @@ class EversionEnv(gym.Env):
             raise ValueError(f"action = {action!r}: expected one finite number in [-1, 1] (NaN and inf are rejected)")
         if self._sim is None:
             raise RuntimeError("call reset() before step()")
+        if self._ended:
+            raise RuntimeError(f"step() after the episode ended ({self._outcome}): call reset() to start the next episode")
         u = float(np.clip(a[0], -1.0, 1.0))
         if self.action_mode == "absolute":
             self.command_pa = (u + 1.0) / 2.0 * MAX_PRESSURE_PA
@@ -412,6 +424,7 @@ class EversionEnv(gym.Env):
         everted = sim.length >= sim.design.length_m - 1e-9
         terminated = bool(reached or ruptured or everted)
         truncated = bool(not terminated and sim.t >= self.max_episode_s - 1e-9)
+        self._ended = terminated or truncated
         self._outcome = ("success" if reached else "ruptured" if ruptured else "everted" if everted
                          else "time out" if truncated else "stalled" if sim.stalled else "running")
         self._hist = self._hist[1:] + [self._sample()]
@@ -503,6 +516,7 @@ class EversionEnv(gym.Env):
             "variation": dict(self._variation_record),
         }
         info.update(sim.solve_stats)  # quasi-static engine: solves, solve_failures, ... (never hidden)
+        info["unconverged_solves"] = int(sim.solve_stats.get("solve_failures", 0))  # both engines (dynamic: relaxations cut)
         info.update({f"reward_{k}": float(v) for k, v in self._terms.items()})
         return info
 

@@ -19,7 +19,7 @@ from evertgym.experiments.sweep import sweep_specs, with_engine
 from evertgym.experiments.trial import run_trial
 from evertgym.scoring.runner import run_trials
 from evertgym.scoring.stats import summarize
-from evertgym.scoring.store import ResultStore
+from evertgym.scoring.store import ResultStore, identify_store, identify_study
 
 HELD_OUT_FIRST_SEED = 10_000
 #: Names of the two reference designs scored beside the best on the held-out scenes.
@@ -68,10 +68,17 @@ def optimize_bands(
     pol = {"name": "constant", "pressure_kpa": budget_kpa} if policy == "constant" else {"name": "operator", "max_kpa": budget_kpa}
     episode = with_engine({"max_s": 20.0, "band_offset_mm": [-25.0, 25.0], "entry_offset_mm": [-5.0, 5.0], "sim": dict(sim or {})})
     optuna.logging.set_verbosity(optuna.logging.WARNING)
-    study = optuna.create_study(
-        study_name=f"bands-{episode['sim']['engine']}", storage=f"sqlite:///{Path(study_path).resolve()}", load_if_exists=True,
-        direction="maximize", sampler=optuna.samplers.TPESampler(seed=seed),
-    )
+    if Path(study_path).resolve() == Path(store_path).resolve():
+        raise ValueError(f"study_path and store_path are the same file ({study_path}): allowed two files")
+    identify_study(study_path, "study_path")  # read-only: a file that is not an optuna study is refused unchanged
+    identify_store(store_path, "store_path")
+    try:
+        study = optuna.create_study(
+            study_name=f"bands-{episode['sim']['engine']}", storage=f"sqlite:///{Path(study_path).resolve()}", load_if_exists=True,
+            direction="maximize", sampler=optuna.samplers.TPESampler(seed=seed),
+        )
+    except Exception as e:  # noqa: BLE001 - optuna's and SQLAlchemy's errors (an old schema, a locked file) in one line
+        raise ValueError(f"study {study_path}: optuna cannot open it ({type(e).__name__}: {' '.join(str(e).split())[:200]})") from None
 
     def score(designs: dict[str, dict], first_seed: int, n: int) -> list[dict]:
         specs = sweep_specs(designs, scene, n, trials_per_scene, pol, episode, first_scene_seed=first_seed)
@@ -85,8 +92,11 @@ def optimize_bands(
             n, trial.suggest_float("spacing_mm", 20.0, 100.0), trial.suggest_float("reduction", 0.05, 0.5),
             trial.suggest_float("last_band_mm", 150.0, 500.0), diameter_mm, length_mm,
         )
-        rate = score({f"candidate {trial.number}": design}, 0, n_scenes)[0]["success_rate"]
-        return rate - 0.001 * n
+        row = score({f"candidate {trial.number}": design}, 0, n_scenes)[0]
+        # the study's own record says when an outcome may be the solver settings' (never hidden)
+        trial.set_user_attr("unconverged_solves", int(row["unconverged_solves"]))
+        trial.set_user_attr("trials_unconverged", int(row["trials_unconverged"]))
+        return row["success_rate"] - 0.001 * n
 
     done = len([t for t in study.trials if t.state.name == "COMPLETE"])
     remaining = n_trials - done

@@ -124,7 +124,8 @@ def ubend_jam_rows(records) -> list[dict]:
     for (red, r), recs in sorted(groups.items(), key=lambda kv: (kv[0][0], -kv[0][1])):
         jams = [rec.result["jam"] for rec in recs if not rec.result["success"] and "jam" in rec.result]
         successes = sum(bool(x.result["success"]) for x in recs)
-        rows.append({"reduction": red, "radius_mm": r, "trials": len(recs), "successes": successes, **summarise_jams(jams)})
+        rows.append({"reduction": red, "radius_mm": r, "trials": len(recs), "successes": successes, **summarise_jams(jams),
+                     "unconverged_solves": sum(int(x.result.get("solve_failures", 0)) for x in recs)})
     return rows
 
 
@@ -137,7 +138,7 @@ def reproduce_ubend(store_path: str | Path, trials: int = 12, backend: str = "pr
     t0 = time.perf_counter()
     records = _run(ubend_specs(trials, radii=radii, reductions=reductions, sim=sim), store_path, backend, workers, progress)
     jams = ubend_jam_rows(records)
-    rows = [{k: j[k] for k in ("reduction", "radius_mm", "trials", "successes")} for j in jams]
+    rows = [{k: j[k] for k in ("reduction", "radius_mm", "trials", "successes", "unconverged_solves")} for j in jams]
     return {"rows": rows, "jams": jams, "wall_s": time.perf_counter() - t0, "solves": solve_totals(records)}
 
 
@@ -185,6 +186,7 @@ def reproduce_colon(store_path: str | Path, backend: str = "serial", progress: b
                 "peak_pressure_kpa": rec.result["peak_pressure_kpa"],
                 "pressure_position": rec.result.get("pressure_position", []),
                 "jam": rec.result.get("jam"),
+                "unconverged_solves": int(rec.result.get("solve_failures", 0)),
             }
         )
     return {"rows": rows}

@@ -43,11 +43,12 @@ def make_trial_env(spec: TrialSpec) -> EversionEnv:
     )
 
 
-def play_trial(spec: TrialSpec) -> tuple[EversionEnv, dict, list[tuple[float, float]]]:
+def play_trial(spec: TrialSpec, trust: bool = False) -> tuple[EversionEnv, dict, list[tuple[float, float]]]:
     """Play one trial to its end; returns the finished environment (its ``sim`` holds the
-    final state), the last step's info and the (insertion mm, pressure kPa) trace."""
+    final state), the last step's info and the (insertion mm, pressure kPa) trace.  ``trust``
+    (the caller's, never the spec's) loads a saved model that is not a shipped policy."""
     env = make_trial_env(spec)
-    policy = make_policy(dict(spec.policy))
+    policy = make_policy(dict(spec.policy), trust=trust)
     max_command_pa = policy.max_command_kpa * 1e3
     pressures: list[tuple[float, float]] = []
     stalled_at_max = 0.0
@@ -65,9 +66,12 @@ def play_trial(spec: TrialSpec) -> tuple[EversionEnv, dict, list[tuple[float, fl
     return env, info, pressures
 
 
-def run_trial(spec: TrialSpec) -> dict:
-    """Run one trial; the result has the keys of ``REQUIRED_RESULT_KEYS`` and more."""
-    env, info, pressures = play_trial(spec)
+def run_trial(spec: TrialSpec, trust: bool = False) -> dict:
+    """Run one trial; the result has the keys of ``REQUIRED_RESULT_KEYS`` and more, among them
+    ``unconverged_solves`` (the quasi-static solves that ended above the tolerance; 0 on the
+    dynamic engine): a trial with any has an outcome the solver settings may have chosen.
+    ``trust`` loads a saved model that is not a shipped policy (:func:`trusted_run_trial`)."""
+    env, info, pressures = play_trial(spec, trust)
     stall_events = [e for e in env.sim.events if e.kind == "stall"]
     result = {
         "success": bool(info["success"]),
@@ -83,7 +87,14 @@ def run_trial(spec: TrialSpec) -> dict:
         "engine": env.sim.cfg.engine,
         "variation": info.get("variation", {}),
         **env.sim.solve_stats,  # the quasi-static engine's solves and the ones that ended above tolerance
+        "unconverged_solves": int(env.sim.solve_stats.get("solve_failures", 0)),
     }
     if not info["success"]:  # where and why it stopped (evertgym.sim.diagnostics)
         result["jam"] = jam_anatomy(env.sim, env.scene)
     return result
+
+
+def trusted_run_trial(spec: TrialSpec) -> dict:
+    """:func:`run_trial` with ``trust=True``: the trial function a run passes to its workers when the
+    person running it opted in (``--trust-model``); the spec itself never carries trust."""
+    return run_trial(spec, trust=True)

@@ -122,7 +122,8 @@ def summarize(
     names as keys plus ``n``, ``successes``, ``success_rate``, ``success_ci_lo`` and
     ``success_ci_hi`` (Wilson, quantile ``z``), the medians of :data:`MEDIAN_KEYS` over the
     group's trials whose value is not ``None`` (``None`` when no trial has a value), and
-    ``n_stalled`` (trials with a stall position).
+    ``n_stalled`` (trials with a stall position), ``unconverged_solves`` (the quasi-static solves of
+    the group's trials that ended above the tolerance) and ``trials_unconverged`` (trials with any).
     """
     names = [by] if isinstance(by, str) else list(by)
     if not names:
@@ -142,5 +143,10 @@ def summarize(
             vals = [r.result[key] for r in recs if r.result.get(key) is not None]
             row[column] = statistics.median(vals) if vals else None
         row["n_stalled"] = sum(1 for r in recs if r.result.get("stall_position_mm") is not None)
+        # the quasi-static engine's solves that ended above the tolerance, and the trials that had any
+        # (their outcome may be the solver settings'): never hidden from a summary
+        failed = [int(r.result.get("unconverged_solves", r.result.get("solve_failures", 0)) or 0) for r in recs]
+        row["unconverged_solves"] = sum(failed)
+        row["trials_unconverged"] = sum(1 for f in failed if f > 0)
         rows.append(row)
     return rows

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, fields
+from numbers import Integral
 
 from evertgym._validate import check_range as _check
 from evertgym.model.eversion import GROWTH_GAIN_M_PER_S_PER_PA, MAX_GROWTH_SPEED_M_PER_S
@@ -15,6 +16,9 @@ _MODEL = bend_model()["switches"]
 #: simulated second costs over 100,000 substeps (tens of seconds of wall time), and an
 #: accidental 1e-9 would never finish
 MIN_DT_S = 1e-5
+#: the smallest ``solver_tolerance`` accepted: the quasi-static solver's residuals stall near 1e-6 of
+#: ``p pi r^2`` (double precision; docs/robustness.md), so below 1e-5 solves end unconverged, not finer
+MIN_SOLVER_TOLERANCE = 1e-5
 
 
 @dataclass(frozen=True)
@@ -159,6 +163,10 @@ class SimConfig:
     threshold_z: float = 0.0
 
     def __post_init__(self) -> None:
+        for name in ("iterations", "law_interval", "max_relax_steps", "friction_lag_iterations", "max_newton_iterations"):
+            count = getattr(self, name)  # counts: 1.5 and true are not counts (their ranges are checked below)
+            if isinstance(count, bool) or not isinstance(count, Integral):
+                raise ValueError(f"{name} = {count!r:.80} is out of range: allowed integers (a count)")
         _check("segment_length_m", self.segment_length_m, 0.0005, 0.05, lo_open=False)
         _check("dt_s", self.dt_s, MIN_DT_S, 0.01)
         _check("damping", self.damping, 0.0, 1.0, lo_open=True)
@@ -192,7 +200,10 @@ class SimConfig:
         if self.engine not in ENGINES:
             raise ValueError(f"engine = {self.engine!r} is out of range: allowed {' or '.join(repr(e) for e in ENGINES)}")
         _check("growth_increment_m", self.growth_increment_m, 1e-6, self.segment_length_m)
-        _check("solver_tolerance", self.solver_tolerance, 1e-9, 0.1)
+        if not MIN_SOLVER_TOLERANCE <= _check("solver_tolerance", self.solver_tolerance, 0.0, 0.1, lo_open=True):
+            raise ValueError(f"solver_tolerance = {self.solver_tolerance!r} is out of range: allowed [{MIN_SOLVER_TOLERANCE:g}, 0.1]; "
+                             f"{MIN_SOLVER_TOLERANCE:g} is the floor: the solver's residuals stall near 1e-6 p pi r^2 in double "
+                             "precision, so a smaller tolerance is never reached")
         _check("barrier_gap_m", self.barrier_gap_m, 1e-6, 0.01)
         _check("friction_slip_m", self.friction_slip_m, 1e-9, 1e-3)
         _check("friction_lag_iterations", self.friction_lag_iterations, 0, 20)

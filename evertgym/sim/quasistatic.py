@@ -80,6 +80,19 @@ _MAX_MOVE_M = 0.002
 #: walk there: one Colon-v0 episode's solves at the shortest increment needed 300-1000 iterations,
 #: and at 60 they ended 0.2-36 p pi r^2 out of balance.
 _ESCALATION = 20
+#: Work one :meth:`QuasiStaticSim.step` call may spend, in units of about 13-20 us of one core (measured):
+#: a Newton iteration weighs ``1 + m/32`` (``+ (m/40)^3`` on the dense solver) for a window of ``m``
+#: unknowns, a solve's own setup :data:`_SOLVE_WORK`.  The budget is :data:`_WORK_MIN` plus
+#: :data:`_WORK_PER_S` per simulated second of the call: 250,000 for a 0.1 s env step, 3-5 s of wall time.
+#: The defaults stay far below it (Colon-v0's costliest step of 20 operator episodes: 49,700; their
+#: answers are bit for bit those from before the budget: scripts/engine_digest.py).  A setting that would
+#: spend more (a tolerance the solver cannot reach with a large Newton budget, a tiny growth increment) is
+#: cut off there: the solve running when the budget ends, and every later solve of the call (one Newton
+#: iteration each, no retries, the pending growth in one increment), ends unconverged and is counted
+#: (``solve_failures``, ``solve_budget_cuts``), so no setting can hang a step.
+_WORK_MIN = 50_000
+_WORK_PER_S = 2_000_000
+_SOLVE_WORK = 40
 #: Root-finding steps (at most) that cut an increment back to the length where the drive balances the wall.
 _BISECTIONS = 10
 #: Largest change of the tip's reaction against growth over one increment, as a fraction of p pi r^2.
@@ -164,11 +177,13 @@ class SolveStats:
     retried: int = 0
     escalated: int = 0
     reselected: int = 0
+    budget_cuts: int = 0
 
     def to_dict(self) -> dict:
         return {"solves": self.solves, "solve_failures": self.failures, "newton_iterations": self.newton_iterations,
                 "max_residual_ratio": self.max_residual_ratio, "rejoined_joints": self.rejoined,
-                "solve_retries": self.retried, "solve_escalations": self.escalated, "solve_reselections": self.reselected}
+                "solve_retries": self.retried, "solve_escalations": self.escalated, "solve_reselections": self.reselected,
+                "solve_budget_cuts": self.budget_cuts}
 
 
 class QuasiStaticSim(GrowingTube):
@@ -283,6 +298,7 @@ class QuasiStaticSim(GrowingTube):
         self._req_ahead = 0.0
         self._stats = SolveStats()
         self._retry_ok = self._retry_wanted = False  # set around a growth increment's solve (_advance)
+        self._work_left = float(_WORK_MIN)  # work the current step may still spend (_step sets it)
         # the lagged friction entries, arrays: ``s`` the robot point's material coordinate (m; -1 for the
         # tip's cap, which is always the newest material), ``wall`` its wall feature, ``wl`` the wall
         # point in the wall's frame, ``t`` the tangent, ``ml`` mu times the lagged normal force (N)
@@ -411,7 +427,8 @@ class QuasiStaticSim(GrowingTube):
         did not converge and were retried at half the length; not failures), ``solve_escalations``
         (solves that could not be shortened, a shortest increment, a cut-back or a pressure
         change, and were run again from their start with :data:`_ESCALATION` times the Newton
-        budget)."""
+        budget) and ``solve_budget_cuts`` (solves ended by the step's work budget, :data:`_WORK_PER_S`;
+        each is also a failure)."""
         return self._stats.to_dict()
 
     # ---- pressure, growth, clock -----------------------------------------------------
@@ -519,6 +536,7 @@ class QuasiStaticSim(GrowingTube):
     def _step(self, n_steps: int) -> None:
         cfg = self.cfg
         dt = cfg.dt_s
+        self._work_left = _WORK_MIN + _WORK_PER_S * n_steps * dt
         p_sum, f_max = 0.0, 0.0
         for _ in range(n_steps):
             p = self.regulator.advance(dt)
@@ -604,14 +622,14 @@ class QuasiStaticSim(GrowingTube):
         dl = dl_max
         cut = False
         while remaining > 1e-12:
-            dl = min(dl, remaining)
+            dl = min(dl, remaining) if self._work_left > 0 else remaining  # (the budget is spent: the rest at once)
             start = self._snapshot()
             f0 = self.tip_force
-            self._retry_ok, self._retry_wanted = dl > dl_min, False
+            self._retry_ok, self._retry_wanted = dl > dl_min and self._work_left > 0, False
             ok = self._grow(dl) and self._solve()
             self._retry_ok = False
             # a wall ahead, or an increment whose equilibrium did not converge: smaller steps
-            if dl > dl_min and (not ok or self._retry_wanted or abs(self.tip_force - f0) > f_step):
+            if dl > dl_min and self._work_left > 0 and (not ok or self._retry_wanted or abs(self.tip_force - f0) > f_step):
                 self._restore(start)
                 dl = max(0.5 * dl, dl_min)
                 continue
@@ -877,7 +895,14 @@ class QuasiStaticSim(GrowingTube):
             return False
         phi_ref = phi.copy()
         iters = 0
+        # one Newton iteration's work: O(m) with the semiseparable solver, O(m^3) with the dense one
+        m = len(phi) + 3 * len(pieces)
+        per_iteration = 1.0 + m / 32.0 + ((m / 40.0) ** 3 if cfg.linear_solver == "dense" else 0.0)
+        self._work_left -= _SOLVE_WORK
         for budget in (cfg.max_newton_iterations, _ESCALATION * cfg.max_newton_iterations):
+            affordable = int(self._work_left / per_iteration)
+            cut = budget > affordable  # the step's work budget ends this solve (_WORK_PER_S)
+            budget = max(1, min(budget, affordable))
             (status, it, res_m, res_f, e_s, e_w, e_wl, e_t, e_ml, acc_f, acc_m, tip, rows) = qk.solve_increment(
                 theta0, n0, phi, phi_ref, seg_len, seg_rad, s_nodes, k_j, mw_j, *_LAW[:3], _LAW[3], RESIDUAL_STIFFNESS_FRACTION,
                 wa, wb, wpiece, w_vertex, w_radius, w_friction, robot_mu, pc0, u, kaa, fh,
@@ -885,8 +910,14 @@ class QuasiStaticSim(GrowingTube):
                 tol_f, budget, _MAX_MOVE_M, cfg.friction_lag_iterations,
                 cfg.linear_solver == "semiseparable")
             iters += it
+            self._work_left -= it * per_iteration
+            if cut and status != qk.CONVERGED:
+                self._retry_ok = False  # no budget left to retry it shorter either
             if status in (qk.CONVERGED, qk.INFEASIBLE_START) or self._retry_ok:
                 break  # (a growth increment that can still be halved is retried shorter by the caller)
+            if cut:  # no budget left to escalate: it ends unconverged (counted below)
+                self._stats.budget_cuts += 1
+                break
             # the increment cannot be shortened: the same solve again, from the same start, with a larger budget
             self._stats.escalated += 1
             phi[:] = phi_ref

@@ -48,7 +48,7 @@ from evertgym.sim.discretize import joint_moment, segment_inertia
 from evertgym.sim.dormant import WALL_REST_SPEED_M_PER_S, DormantWalls
 from evertgym.sim.events import SimEvent
 from evertgym.sim.links import Link, make_link
-from evertgym.sim.tube import GrowingTube, check_buildable
+from evertgym.sim.tube import GrowingTube, check_buildable, relax_step_budget
 
 ROBOT_COLLISION_TYPE = 1
 _ROBOT_GROUP = 1
@@ -142,6 +142,8 @@ class EversionSim(GrowingTube):
         self._rest_pressure: float | None = None  # the pressure (Pa) the rest lock holds at
         self.stall_count = 0
         self.relax_steps = 0  # solver steps spent relaxing without advancing time
+        self.relax_budget_cuts = 0  # relaxations the step's work bound ended before rest (unconverged_solves)
+        self._relax_left = 0.0
         self.growth_speed = 0.0
         self.tip_force = 0.0
         self.tip_contact = np.zeros(2)
@@ -521,6 +523,9 @@ class EversionSim(GrowingTube):
         summarise the call's steps."""
         cfg = self.cfg
         dt = cfg.dt_s
+        # relaxation steps this call may take: the dynamic engine's work bound over the call's simulated time
+        # (:data:`~evertgym.sim.tube.MAX_DYNAMIC_WORK_PER_S`), so no max_relax_steps can hang a step
+        self._relax_left = relax_step_budget(self.design, cfg, n_steps)
         p_sum, f_max = 0.0, 0.0
         for _ in range(n_steps):
             p = self.regulator.advance(dt)
@@ -596,6 +601,10 @@ class EversionSim(GrowingTube):
         for k in range(cfg.max_relax_steps):
             if self._tip_region_residual() <= tol:
                 return
+            if self._relax_left <= 0:  # the step's work bound: this relaxation ends short of rest, counted
+                self.relax_budget_cuts += 1
+                return
+            self._relax_left -= 1
             if k % cfg.law_interval == cfg.law_interval - 1:
                 self._update_joint_law()
             self.space.step(cfg.dt_s)
@@ -634,8 +643,9 @@ class EversionSim(GrowingTube):
 
     @property
     def solve_stats(self) -> dict:
-        """Empty: the dynamic engine has no equilibrium solves to count."""
-        return {}
+        """Empty: the dynamic engine has no equilibrium solves to count; with the section law, relaxations
+        the step's work bound ended before rest as ``{"solve_failures": n}`` once there is one."""
+        return {"solve_failures": self.relax_budget_cuts} if self.relax_budget_cuts else {}
 
     @property
     def at_rest(self) -> bool:
