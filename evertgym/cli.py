@@ -565,7 +565,7 @@ def cmd_score(args: argparse.Namespace) -> int:
 
 
 def cmd_optimize(args: argparse.Namespace) -> int:
-    from evertgym.experiments.optimize import BARE_NAME, PAPER_NAME, optimize_bands
+    from evertgym.experiments.optimize import BARE_NAME, PAPER_NAME, optimize_bands, study_text
 
     try:
         params = json.loads(args.scene_params)
@@ -586,6 +586,8 @@ def cmd_optimize(args: argparse.Namespace) -> int:
     if args.json:
         print(dumps({**out, "physics": _physics(sim)}, default=float))
         return 0
+    print(study_text(out["study"]))
+    print(out["objective"])
     print(f"best after {out['trials']} designs: {_best_design_text(out['best_design'], out['best_params'])}")
     print("held-out scenes:")
     for r in out["held_out"]:

@@ -274,13 +274,17 @@ def test_score_prints_the_difference_to_the_first_design_with_a_verdict(tmp_path
     assert diff[0]["ci_lo"] <= diff[0]["difference"] <= diff[0]["ci_hi"]
 
 
+_STUDY = {"objective": "objective: ...", "study": {"path": "s.sqlite", "name": "bands-x", "new": True, "resumed_designs": 0,
+                                                   "settings": {}, "other_studies": []}}
+
+
 def test_optimize_prints_a_design_without_bands_as_having_no_spacing_or_reduction(monkeypatch, capsys):
     import evertgym.experiments.optimize as optimize
 
     rows = [{"design_name": name, "n": 8, "successes": k, "success_rate": k / 8, "success_ci_lo": 0.0, "success_ci_hi": 1.0}
             for name, k in (("best", 8), ("paper 3 x 10% / 50 mm", 2))]
     out = {"best_params": {"n_bands": 0, "spacing_mm": 53.2, "reduction": 0.31, "last_band_mm": 201.0},
-           "best_design": {"tube": {}, "bands": []}, "held_out": rows, "trials": 3}
+           "best_design": {"tube": {}, "bands": []}, "held_out": rows, "trials": 3, **_STUDY}
     monkeypatch.setattr(optimize, "optimize_bands", lambda *a, **k: out)
     assert main(["optimize", "--trials", "3"]) == 0
     text = capsys.readouterr().out
@@ -296,7 +300,7 @@ def test_optimize_tests_the_best_and_the_paper_design_against_the_bare_robot(mon
             for name, k in (("best", 15), ("paper 3 x 10% / 50 mm", 9), ("no bands", 2))]
     out = {"best_params": {"n_bands": 3, "spacing_mm": 50.0, "reduction": 0.12, "last_band_mm": 300.0},
            "best_design": {"tube": {}, "bands": [{"position_mm": p, "reduction": 0.12} for p in (200.0, 250.0, 300.0)]},
-           "held_out": rows, "trials": 3}
+           "held_out": rows, "trials": 3, **_STUDY}
     monkeypatch.setattr(optimize, "optimize_bands", lambda *a, **k: dict(out))
     assert main(["optimize", "--trials", "3"]) == 0
     text = capsys.readouterr().out
