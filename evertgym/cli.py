@@ -639,15 +639,18 @@ def cmd_train(args: argparse.Namespace) -> int:
 
 def cmd_eval(args: argparse.Namespace) -> int:
     from evertgym.agents.evaluate import OUTCOME_CHECKS, evaluate, outcome_check_kwargs
+    from evertgym.agents.policies import on_trained_engine
     from evertgym.cli_guard import check_eval_flags
     from evertgym.env.eversion_env import HELD_OUT_SEED_BASE, VALIDATION_SEED_BASE, engine_of
 
-    env_kwargs = check_eval_flags(args)
+    given = check_eval_flags(args)
+    env_kwargs = on_trained_engine(args.policies, given, args.allow_engine_mismatch)
     seed_base = VALIDATION_SEED_BASE if args.validation else HELD_OUT_SEED_BASE
     rows = evaluate(args.policies, args.env, args.episodes, env_kwargs=env_kwargs, workers=args.workers,
                     trust=args.trust_model, progress=not args.json, seed_base=seed_base, db=args.db,
-                    check_outcomes=args.check_outcomes)
+                    check_outcomes=args.check_outcomes, allow_engine_mismatch=args.allow_engine_mismatch)
     engine = engine_of(env_kwargs or {})
+    own = " (the trained policies' own)" if env_kwargs != given else ""
     if args.json:
         extra = {}
         if args.check_outcomes:
@@ -657,7 +660,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
                      **extra}))
         return 0
     print(f"{'validation' if args.validation else 'held-out'} episodes: episode and scene seeds {seed_base}-{seed_base + args.episodes - 1}, "
-          f"{engine} engine")
+          f"{engine} engine{own}")
     width = max([30] + [len(r["policy"]) for r in rows])  # a name is never cut
     print(f"{'policy':{width}s} {'episodes':>8s} {'passed':>6s} {'success':>8s} {'95% CI':>14s} {'time_to_goal_s':>14s} "
           f"{'peak_kpa':>9s} {'max_force_n':>11s} {'bend_peak_kpa':>13s} {'peak<bend':>9s}")
@@ -720,24 +723,29 @@ def cmd_policies(args: argparse.Namespace) -> int:
 
 
 def cmd_rollout(args: argparse.Namespace) -> int:
+    from evertgym.agents.policies import on_trained_engine
     from evertgym.agents.rollout import rollout_gif
     from evertgym.cli_guard import check_rollout_flags
 
-    env_kwargs = check_rollout_flags(args)
+    env_kwargs = on_trained_engine([args.policy], check_rollout_flags(args), args.allow_engine_mismatch)
     info = rollout_gif(args.policy, args.env, args.out, seed=args.seed, trust=args.trust_model, progress=not args.json,
-                       env_kwargs=env_kwargs)
+                       env_kwargs=env_kwargs, allow_engine_mismatch=args.allow_engine_mismatch)
     if args.json:
         print(dumps(info))
         return 0
     cmd = np.asarray(info["command_kpa"])
     print(f"held-out episode {args.seed} (seed {info['episode_seed']}): "
           f"{'success' if info['success'] else 'no success'} after {info['time_s']:.1f} s ({len(cmd)} control steps); "
-          f"peak pressure {info['peak_pressure_kpa']:.2f} kPa")
+          f"peak pressure {info['peak_pressure_kpa']:.2f} kPa; {info['engine']} engine")
     if len(cmd):
         print(f"pressure command: mean {cmd.mean():.2f} kPa, range {cmd.min():.2f}-{cmd.max():.2f} kPa "
               "(--json lists every step)")
     print(f"{info['frames']} frames -> {info['out']}")
     return 0
+
+
+_ENGINE_HELP = ("run a trained model on another simulator engine than the one it was trained on (without it, the episodes run "
+                "on the model's own engine, and --env-kwargs naming another engine is refused)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -883,6 +891,7 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--check-outcomes", action="store_true",
                     help="also replay every episode with the solver tolerance / 10 and the growth increment / 2 (quasi-static "
                          "engine; 3x the time) and report the episodes whose outcome moves with them (undecided)")
+    ev.add_argument("--allow-engine-mismatch", action="store_true", help=_ENGINE_HELP)
     ev.set_defaults(func=cmd_eval)
 
     po = _sub(sub, "policies", "the shipped trained policies: env, observations, training config, held-out success")
@@ -901,6 +910,7 @@ def build_parser() -> argparse.ArgumentParser:
     ro.add_argument("--json", action="store_true", help="print the outcome and every step's command as JSON")
     ro.add_argument("--trust-model", action="store_true", help="load a model file that is not a shipped policy: model files are code "
                          "(pickles) and run when loaded")
+    ro.add_argument("--allow-engine-mismatch", action="store_true", help=_ENGINE_HELP)
     ro.set_defaults(func=cmd_rollout)
 
     bench = _sub(sub, "bench", "benchmarks")

@@ -88,3 +88,76 @@ def test_an_action_outside_the_action_space_warns_once_per_env():
     with pytest.warns(UserWarning, match="outside the action space"):
         other.step(np.array([1.5]))
     other.close()
+
+
+# ---- a trained model runs on the engine it was trained on ---------------------------------------
+def test_eval_runs_a_model_on_the_engine_it_was_trained_on(capsys):
+    pytest.importorskip("stable_baselines3")
+    # ubend_ppo was trained on the dynamic engine; the default is the quasi-static one
+    assert main(["eval", "ubend_ppo", "--env", "evertgym/UBend-v0", "--episodes", "1", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["engine"] == "dynamic" and out["env_kwargs"] == {"sim_config": {"engine": "dynamic"}}
+
+
+def test_eval_and_rollout_refuse_another_engine_in_one_line_naming_the_flag(tmp_path, capsys):
+    pytest.importorskip("stable_baselines3")
+    qs = '{"sim_config": {"engine": "quasistatic"}}'
+    for argv in (["eval", "ubend_ppo", "operator", "--env", "evertgym/UBend-v0", "--episodes", "1", "--env-kwargs", qs],
+                 ["rollout", "ubend_ppo", "--env", "evertgym/UBend-v0", "--out", str(tmp_path / "x.gif"), "--env-kwargs", qs],
+                 ["eval", "ubend_ppo", "ubend_ppo_operator", "--env", "evertgym/UBend-v0", "--episodes", "1"]):  # two engines
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1, err
+        assert ("trained on the dynamic engine but the env runs the quasistatic engine" in err
+                or "trained on different engines (ubend_ppo on the dynamic, ubend_ppo_operator on the quasistatic)" in err)
+        assert "--allow-engine-mismatch" in err
+    assert not (tmp_path / "x.gif").exists()
+
+
+def test_a_checkpoint_whose_metadata_names_the_dynamic_engine_runs_there(tmp_path, capsys):
+    pytest.importorskip("stable_baselines3")
+    import shutil
+
+    from evertgym.agents.policies import on_trained_engine
+    from evertgym.agents.tuned import shipped_dir
+
+    run = tmp_path / "run"
+    shutil.copytree(shipped_dir() / "ubend_ppo_operator", run)
+    meta = json.loads((run / "final_env.json").read_text())
+    (run / "final_env.json").write_text(json.dumps({**meta, "engine": "dynamic"}))  # the engine beside the sim_config's solver
+    model = str(run / "final.zip")
+    assert on_trained_engine([model, "operator"], {}) == {"sim_config": {"engine": "dynamic"}}
+    assert on_trained_engine([model], {"regulator_tau_s": 0.2}) == {"regulator_tau_s": 0.2, "sim_config": {"engine": "dynamic"}}
+    assert on_trained_engine(["operator"], {}) == {}  # baselines run on what they are given
+    assert on_trained_engine([model], {"sim_config": {"engine": "quasistatic"}}, allow_mismatch=True) == {
+        "sim_config": {"engine": "quasistatic"}}
+    with pytest.raises(ValueError, match="allow_engine_mismatch=True"):
+        from evertgym.agents.evaluate import evaluate
+
+        evaluate([model], "evertgym/UBend-v0", 1, env_kwargs={"sim_config": {"engine": "quasistatic"}}, trust=True)
+    assert main(["eval", model, "--trust-model", "--env", "evertgym/UBend-v0", "--episodes", "1",
+                 "--env-kwargs", '{"sim_config": {"engine": "quasistatic"}}']) == 2
+    assert "--allow-engine-mismatch" in capsys.readouterr().err
+
+
+def test_load_policy_names_the_engine_and_its_policy_refuses_another():
+    pytest.importorskip("stable_baselines3")
+    import gymnasium as gym
+
+    from evertgym.agents import load_policy
+
+    policy, env_id, env_kwargs = load_policy("ubend_ppo")
+    assert env_kwargs["sim_config"]["engine"] == "dynamic"
+    env = gym.make(env_id, **env_kwargs)
+    obs, info = env.reset(seed=0)
+    policy.reset(env)  # its own engine
+    env.close()
+    other = gym.make(env_id, tip_sensing=True)  # the default engine: quasi-static
+    other.reset(seed=0)
+    with pytest.raises(ValueError, match="trained on the dynamic engine but the env runs the quasistatic engine.*allow_engine_mismatch"):
+        policy.reset(other)
+    policy, _, _ = load_policy("ubend_ppo", allow_engine_mismatch=True)
+    policy.reset(other)
+    other.close()
+    _, _, kw = load_policy("ubend_ppo_operator")  # trained on the quasi-static engine: named, not left to the default
+    assert kw["sim_config"] == {"linear_solver": "dense", "engine": "quasistatic"}
