@@ -1,12 +1,12 @@
 #!/usr/bin/env python
-"""Write ``agents/held_out.json``: each shipped policy's held-out success, from the evaluations in docs/.
+"""Write ``agents/held_out.json``: each shipped policy's held-out success, from the evaluations in docs/results/.
 
     python scripts/held_out_index.py           # (re)write agents/held_out.json
-    python scripts/held_out_index.py --check   # exit 1 if the file differs from docs/
+    python scripts/held_out_index.py --check   # exit 1 if the file differs from docs/results/
 
 ``evertgym policies`` prints these numbers (the index ships with the policies; docs/ does
 not).  Every number comes from one of the ``evertgym eval ... --json`` outputs kept in
-``docs/*_eval.json`` (docs/agents.md gives each command): the row of the shipped policy,
+``docs/results/*_eval.json`` (docs/agents.md gives each command): the row of the shipped policy,
 ``agents/<name>/final.zip`` or ``<name>``, with the file's evaluation env kwargs
 (``{}`` for the files that predate the key: the env's defaults).
 """
@@ -26,7 +26,7 @@ def build() -> dict:
     """``{"source": ..., "policies": {name: {env_id, env_kwargs, engine, episodes, successes, ci_low, ci_high, source}}}``."""
     names = sorted(p.parent.name for p in (ROOT / "agents").glob("*/final.zip"))
     out: dict[str, dict] = {}
-    for f in sorted((ROOT / "docs").glob("*_eval.json")):
+    for f in sorted((ROOT / "docs" / "results").glob("*_eval.json")):
         data = json.loads(f.read_text(encoding="utf-8"))
         for row in data["rows"]:
             for name in names:
@@ -36,11 +36,11 @@ def build() -> dict:
                     out[name] = {"env_id": env_id, "env_kwargs": data.get("env_kwargs", {}), "engine": data.get("engine", "dynamic"),
                                  "episodes": row["episodes"],
                                  "successes": round(row["success_rate"] * row["episodes"]), "ci_low": round(row["ci_low"], 4),
-                                 "ci_high": round(row["ci_high"], 4), "source": f"docs/{f.name}"}
+                                 "ci_high": round(row["ci_high"], 4), "source": f"docs/results/{f.name}"}
     missing = sorted(set(names) - set(out))
     if missing:
-        sys.exit(f"no held-out evaluation in docs/*_eval.json for {missing}")
-    return {"source": "python scripts/held_out_index.py (from docs/*_eval.json)", "policies": out}
+        sys.exit(f"no held-out evaluation in docs/results/*_eval.json for {missing}")
+    return {"source": "python scripts/held_out_index.py (from docs/results/*_eval.json)", "policies": out}
 
 
 def main() -> int:
@@ -50,7 +50,7 @@ def main() -> int:
     text = json.dumps(build(), indent=2) + "\n"
     if args.check:
         if not OUT.is_file() or OUT.read_text(encoding="utf-8") != text:
-            print(f"{OUT.relative_to(ROOT)} differs from docs/*_eval.json: run python scripts/held_out_index.py", file=sys.stderr)
+            print(f"{OUT.relative_to(ROOT)} differs from docs/results/results/*_eval.json: run python scripts/held_out_index.py", file=sys.stderr)
             return 1
         return 0
     OUT.write_text(text, encoding="utf-8")

@@ -188,7 +188,7 @@ def test_policies_lists_every_shipped_policy_with_env_observations_config_and_he
 
     assert main(["policies"]) == 0
     out = capsys.readouterr().out
-    assert "197/200 [0.96, 0.99]" in out  # colon_ppo, docs/colon_eval.json
+    assert "197/200 [0.96, 0.99]" in out  # colon_ppo, docs/results/colon_eval.json
     for name in shipped_policies():
         assert f"agents/{name}.toml" in out
     assert main(["policies", "--json"]) == 0

@@ -1,6 +1,6 @@
 """The package's import graph: no cycles, and every import runs down the declared layers.
 
-Layer order (docs/architecture in the README, ``shared/DESIGN.md``)::
+Layer order (docs/architecture.md)::
 
     design < model < scenes < sim < render < env < scoring < agents < experiments < bench < cli
 

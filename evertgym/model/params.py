@@ -96,7 +96,7 @@ def load_params(path: str | None = None) -> ModelParams:
 
 @lru_cache(maxsize=1)
 def load_measurements() -> dict:
-    """The paper's numbers (a copy of shared/paper/measurements.json shipped with the package)."""
+    """The paper's numbers (``evertgym/data/measurements.json``, shipped with the package)."""
     with open(MEASUREMENTS_PATH, encoding="utf-8") as f:
         return json.load(f)
 
