@@ -160,7 +160,7 @@ def markdown(result: dict, lines: list[str], skip_lines: list[str]) -> str:
         "",
         f"Measured {meta['date']} in {meta['elapsed_s']:.0f} s, {'quick' if result['quick'] else 'full'} sweep; "
         f"{meta['versions']['machine']}, Python {meta['versions']['python']}, numpy {meta['versions']['numpy']}, "
-        f"pymunk {meta['versions']['pymunk']}, commit {meta['versions']['git_commit']}. "
+        f"pymunk {meta['versions']['pymunk']}. "
         "Wall times depend on the machine: compare rows of one run only.",
         "",
         "> **Engine.** Every row below is the dynamic engine's (`SimConfig(engine=\"dynamic\")`, the default before 0.3.0): "
