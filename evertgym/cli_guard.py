@@ -152,6 +152,10 @@ def check_env_id(flag: str, env_id: str) -> str:
     """A registered Gymnasium id."""
     import gymnasium as gym
 
+    from evertgym.env import RENAMED_IDS
+
+    if env_id in RENAMED_IDS:
+        raise ValueError(f"{flag} = {env_id!r}: renamed {RENAMED_IDS[env_id]} (the same env)")
     try:
         gym.spec(env_id)
     except gym.error.Error as e:

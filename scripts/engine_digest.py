@@ -26,7 +26,7 @@ RUNS = (
     ("evertgym/UBend-v0", "quasistatic", 300),
     ("evertgym/Colon-v0", "quasistatic", 120),
     ("evertgym/Tortuous-v0", "quasistatic", 200),
-    ("evertgym/Tortuous-v1", "quasistatic", 100),
+    ("evertgym/TortuousHard-v0", "quasistatic", 100),
     ("evertgym/UBend-v0", "dynamic", 150),
     ("evertgym/Colon-v0", "dynamic", 60),
 )

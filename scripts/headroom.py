@@ -7,7 +7,7 @@ oracle over all of them (the best stored policy chosen for each episode, which n
 episodes every stored policy fails.  A reference whose failures no other policy passes leaves a residual around it
 little to find.
 
-    python scripts/headroom.py --env evertgym/Tortuous-v1 \\
+    python scripts/headroom.py --env evertgym/TortuousHard-v0 \\
         --ref 'runs/v1/tort_v1.sqlite:cycle:low_kpa=2,high_kpa=8,period_s=2' --stores runs/v1/tort_v1.sqlite
 """
 
@@ -38,7 +38,7 @@ def headroom(ref: dict[int, dict], others: dict[str, dict[int, dict]], seeds: li
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--env", required=True, help="env id, e.g. evertgym/Tortuous-v1")
+    ap.add_argument("--env", required=True, help="env id, e.g. evertgym/TortuousHard-v0")
     ap.add_argument("--ref", required=True, help="STORE:POLICY, the reference (e.g. the best rule)")
     ap.add_argument("--stores", nargs="+", required=True, help="stores whose other policies are compared")
     ap.add_argument("--episodes", type=int, default=200, help="held-out episodes (seeds 1e9 ...), default 200")

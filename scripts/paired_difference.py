@@ -6,7 +6,7 @@ with its normal 95% interval, the Wilcoxon signed-rank p-value and in how many e
 the two successes over the same episodes with the exact McNemar test on the discordant ones (passed by one policy
 only), so a lower force can be read beside what it cost in passes.
 ``--env-kwargs`` picks the episodes played with those env kwargs (default the randomised regulator lag, or none for an
-id whose preset draws the lag itself, such as Tortuous-v1), e.g. an outcome check's replays (``evertgym eval
+id whose preset draws the lag itself, such as TortuousHard-v0), e.g. an outcome check's replays (``evertgym eval
 --check-outcomes`` stores them with the changed setting in ``sim_config``), so a difference can be shown to survive the solver's numerical settings.
 
     python scripts/paired_difference.py --env evertgym/UBend-v0 \\

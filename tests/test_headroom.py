@@ -12,7 +12,7 @@ from evertgym.scoring.store import ResultStore
 
 SCRIPT = Path(__file__).parents[1] / "scripts" / "headroom.py"
 SEED = 1_000_000_000
-ENV = "evertgym/Tortuous-v1"
+ENV = "evertgym/TortuousHard-v0"
 spec = importlib.util.spec_from_file_location("headroom", SCRIPT)
 headroom = importlib.util.module_from_spec(spec)
 spec.loader.exec_module(headroom)

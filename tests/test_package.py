@@ -83,6 +83,23 @@ def test_api_reference_builds_without_warnings(tmp_path):
         assert (tmp_path / page).is_file(), page
 
 
+def _venv_seeing_this_environment(venv: Path) -> Path:
+    """A fresh venv that sees this interpreter's packages after its own (``--system-site-packages``
+    sees only the base interpreter's, so from inside a venv the dependencies would be missing):
+    this environment's site directories go on its path by a ``.pth`` (a plain path: the ``.pth``
+    files there, an editable evertgym's among them, are not run).  Returns its python."""
+    import site
+    import sysconfig
+
+    subprocess.run([sys.executable, "-m", "venv", "--system-site-packages", str(venv)], check=True, timeout=300)
+    py = venv / "bin" / "python"
+    purelib = subprocess.run([str(py), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"], capture_output=True,
+                             text=True, check=True).stdout.strip()
+    dirs = dict.fromkeys([sysconfig.get_paths()["purelib"], sysconfig.get_paths()["platlib"], *site.getsitepackages()])
+    Path(purelib, "zz_parent_environment.pth").write_text("".join(f"{d}\n" for d in dirs if Path(d).is_dir()))
+    return py
+
+
 @pytest.mark.slow
 def test_wheel_carries_the_data_and_runs_from_a_fresh_venv(tmp_path):
     """Build the wheel, install it (no deps: they come from this interpreter's site) in a new
@@ -95,15 +112,18 @@ def test_wheel_carries_the_data_and_runs_from_a_fresh_venv(tmp_path):
               "evertgym/shipped_agents/colon_ppo/final_env.json", "evertgym/shipped_agents/colon_ppo/final_vecnormalize.pkl",
               "evertgym/shipped_agents/ppo.yml", "evertgym/presets/colon.toml", "evertgym/data/model_params.json"):
         assert f in names, f
-    venv = tmp_path / "venv"
-    subprocess.run([sys.executable, "-m", "venv", "--system-site-packages", str(venv)], check=True, timeout=300)
-    py = venv / "bin" / "python"
+    assert {"evertgym_gymnasium_hook.py", "evertgym_gymnasium_hook.pth"} <= names
+    py = _venv_seeing_this_environment(tmp_path / "venv")
     subprocess.run([str(py), "-m", "pip", "install", "-q", "--no-deps", str(wheel)], check=True, timeout=600)
     code = textwrap.dedent("""
+        import warnings
+        warnings.simplefilter("error")  # no Gymnasium warning on making an env
         import gymnasium as gym
+        env = gym.make("evertgym/UBend-v0")  # no `import evertgym`: the wheel's start-up hook registered it
         import evertgym
         from evertgym.agents import load_policy, make_baseline
         assert "site-packages" in evertgym.__file__, evertgym.__file__
+        warnings.simplefilter("default")
         env = gym.make("evertgym/Colon-v0")
         tuned = make_baseline("tuned")
         obs, info = env.reset(seed=0); tuned.reset(env); env.step(tuned.act(obs, info))

@@ -39,15 +39,20 @@ def model_meta(path: str | Path) -> dict:
     checkpoints), else, for a checkpoint in a run's ``checkpoints/`` folder, from the run's
     ``config.json`` (runs trained before checkpoints carried their own); ``{}`` without
     either.  Only JSON is read: nothing is unpickled."""
+    from evertgym.env import current_id
+
     path = Path(path)
     meta = path.with_name(path.stem + "_env.json")
     if meta.is_file():
-        return dict(json.loads(meta.read_text(encoding="utf-8")))
+        found = dict(json.loads(meta.read_text(encoding="utf-8")))
+        if "env_id" in found:
+            found["env_id"] = current_id(found["env_id"])  # a model saved under an env's former id
+        return found
     run_config = path.parent.parent / "config.json"
     if path.parent.name == "checkpoints" and _CHECKPOINT.fullmatch(path.stem) and run_config.is_file():
         cfg = json.loads(run_config.read_text(encoding="utf-8")).get("config", {})
         if "env_id" in cfg:
-            found = {"env_id": cfg["env_id"], "env_kwargs": cfg.get("env_kwargs", {}), "deterministic": cfg.get("deterministic", True)}
+            found = {"env_id": current_id(cfg["env_id"]), "env_kwargs": cfg.get("env_kwargs", {}), "deterministic": cfg.get("deterministic", True)}
             if cfg.get("residual_spec") is not None:
                 found["residual"] = cfg["residual_spec"]
             return found

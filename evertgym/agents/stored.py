@@ -20,7 +20,7 @@ RANDOMISED_LAG = {"regulator_tau_s": [0.1, 0.6]}
 
 def default_env_kwargs(env_id: str) -> dict:
     """The env kwargs the held-out tables were played with: the randomised lag, less what the id's preset draws
-    itself (Tortuous-v1 draws the lag: ``{}``).  A ValueError names an unknown id."""
+    itself (TortuousHard-v0 draws the lag: ``{}``).  A ValueError names an unknown id."""
     preset = preset_kwargs(env_id)
     return {k: v for k, v in RANDOMISED_LAG.items() if k not in preset}
 
