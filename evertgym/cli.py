@@ -726,6 +726,7 @@ def cmd_rollout(args: argparse.Namespace) -> int:
     from evertgym.agents.policies import on_trained_engine
     from evertgym.agents.rollout import rollout_gif
     from evertgym.cli_guard import check_rollout_flags
+    from evertgym.env.eversion_env import engine_of
 
     env_kwargs = on_trained_engine([args.policy], check_rollout_flags(args), args.allow_engine_mismatch)
     info = rollout_gif(args.policy, args.env, args.out, seed=args.seed, trust=args.trust_model, progress=not args.json,
@@ -736,7 +737,7 @@ def cmd_rollout(args: argparse.Namespace) -> int:
     cmd = np.asarray(info["command_kpa"])
     print(f"held-out episode {args.seed} (seed {info['episode_seed']}): "
           f"{'success' if info['success'] else 'no success'} after {info['time_s']:.1f} s ({len(cmd)} control steps); "
-          f"peak pressure {info['peak_pressure_kpa']:.2f} kPa; {info['engine']} engine")
+          f"peak pressure {info['peak_pressure_kpa']:.2f} kPa; {engine_of(env_kwargs)} engine")
     if len(cmd):
         print(f"pressure command: mean {cmd.mean():.2f} kPa, range {cmd.min():.2f}-{cmd.max():.2f} kPa "
               "(--json lists every step)")
