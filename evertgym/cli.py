@@ -610,7 +610,7 @@ def _best_design_text(design: dict, params: dict) -> str:
 def cmd_train(args: argparse.Namespace) -> int:
     from evertgym.agents.train import run_status, train
 
-    status = run_status(args.config, args.out, args.seed)
+    status = run_status(args.config, args.out, args.seed, args.timesteps)
     if status["finished"]:
         print(f"evertgym: {status['run_dir']} is already trained to {status['n_timesteps']} steps: nothing to do "
               f"(remove the folder, or pass --out or --seed, to train again)", file=sys.stderr)
@@ -619,13 +619,17 @@ def cmd_train(args: argparse.Namespace) -> int:
               f"{status['n_timesteps']} steps (remove the folder to train from step 0)", file=sys.stderr)
     elif args.resume:
         raise CLIError(f"--resume: {status['run_dir']} has no complete checkpoint: allowed without --resume (a fresh run)")
-    summary = train(args.config, out_dir=args.out, resume=None, progress=args.progress and not args.json, seed=args.seed)
+    summary = train(args.config, out_dir=args.out, resume=None, progress=args.progress and not args.json, seed=args.seed,
+                    timesteps=args.timesteps)
     if args.json:
         print(dumps(summary, indent=2))
         return 0
     run_dir = Path(summary["run_dir"])
     if not summary["already_trained"]:
-        print(f"trained {summary['num_timesteps']} env steps in {summary['train_wall_s'] / 60:.1f} min; model: {run_dir / 'final.zip'} "
+        start = summary.get("resumed_from_steps") or 0
+        steps = (f"{summary['num_timesteps'] - start} env steps (from the checkpoint at {start} to {summary['num_timesteps']})"
+                 if start else f"{summary['num_timesteps']} env steps")
+        print(f"trained {steps} in {summary['train_wall_s'] / 60:.1f} min; model: {run_dir / 'final.zip'} "
               f"(TensorBoard: tensorboard --logdir {run_dir / 'tb'})")
     else:
         print(f"{summary['num_timesteps']} env steps; model: {run_dir / 'final.zip'}")
@@ -697,28 +701,30 @@ def cmd_policies(args: argparse.Namespace) -> int:
         p = Path(path)
         return str(p.relative_to(Path.cwd())) if p.is_relative_to(Path.cwd()) else str(p)
 
-    table = []
+    import textwrap
+
+    from evertgym.sim.growth import MAX_PRESSURE_PA
+
+    kpa_per_action = MAX_PRESSURE_PA / 1e3 / 2  # an action unit in kPa: a in [-1, 1] spans 0-8 kPa
+    print(f"{'policy':30s} {'env':16s} {'trained on':12s} held-out success (Wilson 95%), engine")
     for r in rows:
+        h = r["held_out"]
+        held = "-" if h is None else f"{h['successes']}/{h['episodes']} [{h['ci_low']:.2f}, {h['ci_high']:.2f}] on {h['engine']}"
+        env = (r["env_id"] or "-").removeprefix("evertgym/")
+        print(f"{r['name']:30s} {env:16s} {r['engine']:12s} {held}")
         obs = ", ".join(f"{k}={json.dumps(v)}" for k, v in r["observations"].items()) or "the env's defaults"
         if r["senses_tip"]:
             obs += " (senses the tip)"
-        h = r["held_out"]
-        if h is None:
-            held = "-"
-        else:
-            lag = f", {json.dumps(h['env_kwargs'])}" if h["env_kwargs"] else ""
-            held = f"{h['successes']}/{h['episodes']} [{h['ci_low']:.2f}, {h['ci_high']:.2f}] on {h['engine']}{lag}"
-        acts = "mean" if r["deterministic"] else "sampled"
+        acts = "its mean action" if r["deterministic"] else "a sampled action"
         if r["residual"] is not None:
-            acts += f", corrects {r['residual']['rule']} by <= {r['residual']['scale']:g}"
-        table.append((r["name"], r["env_id"] or "-", obs, acts, r["engine"], shown(r["config"]), held))
-    head = ("policy", "env", "observations", "actions", "trained on", "training config",
-            "held-out success (Wilson 95%, engine, eval env kwargs)")
-    widths = [max(len(row[i]) for row in [head, *table]) for i in range(len(head) - 1)]
-    for row in [head, *table]:
-        print("  ".join(f"{c:{w}s}" for c, w in zip(row, widths)) + "  " + row[-1])
-    print("use one by name: evertgym eval NAME --env ENV, evertgym rollout NAME --env ENV --out x.gif, "
-          "load_policy(NAME) in Python (docs/agents.md)")
+            acts += f", correcting {r['residual']['rule']} by at most {r['residual']['scale'] * kpa_per_action:g} kPa"
+        details = [f"observes {obs}; plays {acts}", f"trained from {shown(r['config'])}"]
+        if h is not None and h["env_kwargs"]:
+            details[-1] += "; held out with " + ", ".join(f"{k}={json.dumps(v)}" for k, v in h["env_kwargs"].items())
+        for line in details:
+            print(textwrap.fill(line, width=100, initial_indent="    ", subsequent_indent="      "))
+    print("use one by name: evertgym eval NAME --env ENV, evertgym rollout NAME --env ENV --out x.gif,\n"
+          "load_policy(NAME) in Python (docs/agents.md); each runs on the engine it was trained on")
     return 0
 
 
@@ -859,7 +865,11 @@ def build_parser() -> argparse.ArgumentParser:
     op.set_defaults(func=cmd_optimize)
 
     tr = _sub(sub, "train", "train a pressure policy from a config in agents/")
-    tr.add_argument("config", help="a training config, e.g. agents/ubend_ppo.toml")
+    tr.add_argument("config", help="a shipped config by name (ubend_ppo_operator, colon_residual_operator, ...: the policy it "
+                    "trained) or a config file, e.g. agents/ubend_ppo.toml")
+    tr.add_argument("--timesteps", type=int, default=None, metavar="N",
+                    help="train N env steps instead of the config's n_timesteps, into its own run folder <name>_<N>steps "
+                         "(a short try of a config)")
     tr.add_argument("--out", default="runs", help="runs folder")
     tr.add_argument("--resume", action="store_true",
                     help="insist on continuing from the newest checkpoint (fail without one); without it a run folder "

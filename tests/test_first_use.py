@@ -208,7 +208,7 @@ def test_policies_lists_every_shipped_policy_with_env_observations_config_and_he
     assert residual["tortuous_v1_residual_operator"] == {"rule": "cycle:low_kpa=2,high_kpa=8,period_s=2", "scale": 0.5}
     assert residual["ubend_residual_operator"]["scale"] == 0.05
     assert residual["colon_ppo_operator"] is None
-    assert "corrects cycle:low_kpa=0,high_kpa=3,period_s=1 by <= 0.25" in out
+    assert "correcting\n      cycle:low_kpa=0,high_kpa=3,period_s=1 by at most 1 kPa" in out
 
 
 def test_the_held_out_index_agrees_with_the_evaluations_in_docs():

@@ -1,0 +1,56 @@
+"""`evertgym train NAME` takes a shipped config by name, and `--timesteps N` tries a config briefly
+in its own run folder."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from evertgym.cli import main
+
+
+def test_a_shipped_config_by_name_and_a_short_try_of_it(tmp_path):
+    from evertgym.agents.train import load_config, resolve_config, run_status
+    from evertgym.agents.tuned import shipped_dir
+
+    assert resolve_config("ubend_ppo") == shipped_dir() / "ubend_ppo.toml"
+    cfg = load_config("ubend_ppo_operator", timesteps=2048)
+    assert cfg["n_timesteps"] == 2048 and cfg["name"] == "ubend_ppo_operator_2048steps"
+    assert load_config("ubend_ppo_operator", seed=1, timesteps=64)["name"] == "ubend_ppo_operator_seed1_64steps"
+    status = run_status("colon_residual_operator", tmp_path, None, 100)
+    assert status["run_dir"] == str(tmp_path / "colon_residual_operator_100steps") and status["n_timesteps"] == 100
+    with pytest.raises(ValueError, match="neither a file nor a shipped config; shipped: .*'ubend_ppo'"):
+        resolve_config("ubend_ppoo")
+    with pytest.raises(ValueError, match="timesteps = 0 is out of range"):
+        load_config("ubend_ppo", timesteps=0)
+
+
+def test_train_refuses_an_unknown_name_in_one_line(capsys):
+    assert main(["train", "no_such_policy"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "shipped:" in err and "ubend_ppo_operator" in err
+
+
+def test_train_timesteps_trains_a_short_try_into_its_own_folder(tmp_path, capsys):
+    pytest.importorskip("stable_baselines3")
+    cfg = tmp_path / "tiny.toml"
+    cfg.write_text('env_id = "evertgym/UBend-v0"\nalgo = "ppo"\nseed = 1\nn_envs = 1\nn_timesteps = 100000\nnormalize = true\n'
+                   "checkpoint_freq = 128\neval_episodes = 0\n[env_kwargs]\nmax_episode_s = 1.0\n"
+                   "[hyperparams]\nn_steps = 64\nbatch_size = 32\nn_epochs = 1\n")
+    out = tmp_path / "runs"
+    assert main(["train", str(cfg), "--timesteps", "128", "--out", str(out), "--no-progress"]) == 0
+    text = capsys.readouterr().out
+    assert "trained 128 env steps" in text and str(Path(out, "tiny_128steps", "final.zip")) in text
+    assert json.loads((out / "tiny_128steps" / "eval.json").read_text())["num_timesteps"] == 128
+    assert not (out / "tiny").exists()  # the full run's folder is untouched
+
+
+def test_policies_fits_100_columns_and_gives_the_correction_in_kpa(capsys):
+    assert main(["policies"]) == 0
+    out = capsys.readouterr().out
+    assert max(len(line) for line in out.splitlines()) <= 100
+    # a residual policy's largest correction in kPa: scale 0.25 action units of a [-1, 1] action over 0-8 kPa
+    assert "correcting cycle by at most 1 kPa" in out and "by at most 0.2 kPa" in out
+    assert "197/200 [0.96, 0.99] on dynamic" in out
