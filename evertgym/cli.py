@@ -52,7 +52,9 @@ _BACKEND_HELP = "where trials run: process pool, serial in this process, or a Da
 
 def _sub(subparsers: argparse._SubParsersAction, name: str, text: str) -> argparse.ArgumentParser:
     """A subcommand whose one-line help is also its description."""
-    return subparsers.add_parser(name, help=text, description=text.replace("%%", "%"))
+    p = subparsers.add_parser(name, help=text, description=text.replace("%%", "%"))
+    p.set_defaults(_parser=p)  # the innermost subcommand's parser reports its own unknown flags (main)
+    return p
 
 
 def _scene_families() -> str:
@@ -70,12 +72,12 @@ def _float_list(flag: str, text: str) -> list[float]:
         raise CLIError(f"{flag} = {text!r}: expected comma-separated numbers in mm, e.g. 50,100") from None
     for v in vals:
         if not math.isfinite(v) or v <= 0:
-            raise CLIError(f"{flag} = {text!r}: every distance must be in (0, inf) mm")
+            raise CLIError(f"{flag} = {text!r}: every value must be in (0, inf) mm")
     return vals
 
 
-def _check(flag: str, value: float, lo: float, hi: float, unit: str) -> float:
-    return check_range(flag, value, lo, hi, unit=unit, error=CLIError)
+def _check(flag: str, value: float, lo: float, hi: float, unit: str, hi_open: bool = False) -> float:
+    return check_range(flag, value, lo, hi, unit=unit, error=CLIError, hi_open=hi_open)
 
 
 # ---- reproduce stiffness ---------------------------------------------------------------
@@ -186,7 +188,7 @@ def cmd_stiffness(args: argparse.Namespace) -> int:
         design = TubeDesign(_check("--diameter-mm", args.diameter_mm, 1.0, 500.0, "mm") / 1e3, 0.05e-3, length_total / 1e3)
         bands = _float_list("--bands-from-tip-mm", args.bands_from_tip_mm)
         if bands:
-            red = _check("--reduction", args.reduction, 0.0, 0.5999, "(fraction of the diameter, below 0.6)")
+            red = _check("--reduction", args.reduction, 0.0, 0.6, "(fraction of the diameter)", hi_open=True)
             design = design.with_bands_from_tip([b / 1e3 for b in bands], red)
     free_mm = params.free_length_m * 1e3 if args.length_mm is None else args.length_mm
     free_source = "calibrated (the paper's rig)" if args.length_mm is None else "--length-mm"
@@ -520,7 +522,7 @@ def cmd_score(args: argparse.Namespace) -> int:
         designs[Path(path).stem] = TubeDesign.load(check_input_file("--design", path)).to_dict()
     if args.bands_mm is not None or not designs:
         bands = _float_list("--bands-mm", args.bands_mm or "")
-        red = _check("--reduction", args.reduction, 0.0, 0.5999, "(fraction, below 0.6)")
+        red = _check("--reduction", args.reduction, 0.0, 0.6, "(fraction of the diameter)", hi_open=True)
         name = f"{len(bands)} x {round(red * 100)}%" if bands else "no bands"
         designs[name] = design_from_flags(args.diameter_mm, args.length_mm, bands, red)
     try:
@@ -823,7 +825,8 @@ def build_parser() -> argparse.ArgumentParser:
     st.set_defaults(func=cmd_stiffness)
     sc = _sub(sub, "score", "score band designs on a scene distribution (resumable SQLite store)")
     sc.add_argument("--design", action="append", help="a design file (TOML/JSON); repeatable")
-    sc.add_argument("--bands-mm", default=None, help="band positions from the base, e.g. 200,250,300")
+    sc.add_argument("--bands-mm", default=None, help="band positions from the base in mm, e.g. 200,250,300; with --design, "
+                    "--bands-mm '' adds a bare robot (no bands) beside the design file's")
     sc.add_argument("--reduction", type=float, default=0.1, help="band diameter reduction of --bands-mm, [0, 0.6)")
     sc.add_argument("--diameter-mm", type=float, default=40.0, help="tube diameter of the flag design (mm)")
     sc.add_argument("--length-mm", type=float, default=900.0, help="robot length of the flag design (mm)")
@@ -959,7 +962,14 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     no_abbreviations(parser)
-    args = parser.parse_args(argv)
+    args, extras = parser.parse_known_args(argv)
+    if extras:  # a misspelt flag: the subcommand's usage and the nearest flag, not the top-level usage
+        import difflib
+
+        sub = getattr(args, "_parser", parser)
+        flags = [o for a in sub._actions for o in a.option_strings]
+        near = [m for e in extras if e.startswith("-") for m in difflib.get_close_matches(e.split("=")[0], flags, n=1)]
+        sub.error(f"unrecognized arguments: {' '.join(extras)}" + (f" (did you mean {', '.join(near)}?)" if near else ""))
     return run_command(args.func, args)
 
 

@@ -1,5 +1,6 @@
-"""`evertgym train NAME` takes a shipped config by name, and `--timesteps N` tries a config briefly
-in its own run folder."""
+"""First use of the command line: `evertgym train NAME` takes a shipped config by name and
+`--timesteps N` tries it briefly in its own run folder; `evertgym policies` fits 100 columns; a
+misspelt flag gets its subcommand's usage; flag and file ranges are worded alike."""
 
 from __future__ import annotations
 
@@ -54,3 +55,19 @@ def test_policies_fits_100_columns_and_gives_the_correction_in_kpa(capsys):
     # a residual policy's largest correction in kPa: scale 0.25 action units of a [-1, 1] action over 0-8 kPa
     assert "correcting cycle by at most 1 kPa" in out and "by at most 0.2 kPa" in out
     assert "197/200 [0.96, 0.99] on dynamic" in out
+
+
+def test_a_misspelt_flag_prints_the_subcommands_usage_and_the_nearest_flag(capsys):
+    with pytest.raises(SystemExit) as e:
+        main(["score", "--trails", "3"])
+    assert e.value.code == 2
+    err = capsys.readouterr().err
+    assert "usage: evertgym score" in err and "unrecognized arguments: --trails 3 (did you mean --trials?)" in err
+
+
+def test_flag_and_file_ranges_are_worded_alike(capsys):
+    assert main(["score", "--bands-mm", "100", "--reduction", "0.9"]) == 2
+    assert "--reduction = 0.9 is out of range: allowed [0, 0.6) (fraction of the diameter)" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["score", "--help"])
+    assert "--bands-mm '' adds a bare robot" in " ".join(capsys.readouterr().out.split())
