@@ -136,3 +136,72 @@ def test_wheel_carries_the_data_and_runs_from_a_fresh_venv(tmp_path):
     done = subprocess.run([str(py), "-c", code], capture_output=True, text=True, timeout=300, cwd=tmp_path, env=env)
     assert done.returncode == 0, done.stderr[-3000:]
     assert f"wheel ok {evertgym.__version__}" in done.stdout
+
+
+#: caps of the extras at a major version not released when this was written: they cannot force a downgrade
+_CAPS_ABOVE_EVERY_RELEASE = {"gymnasium<2.0", "numpy<3.0"}
+
+
+def _closure(roots: list, norm) -> dict:
+    """The installed distributions a list of requirements pulls in, transitively: name -> its requirements."""
+    from packaging.requirements import Requirement
+
+    seen: dict = {}
+    todo = [(r, set(r.extras)) for r in roots]
+    while todo:
+        req, extras = todo.pop()
+        name = norm(req.name)
+        try:
+            dist = importlib.metadata.distribution(req.name)
+        except importlib.metadata.PackageNotFoundError:
+            continue
+        reqs = [Requirement(t) for t in dist.requires or []]
+        active = [r for r in reqs if r.marker is None or any(r.marker.evaluate({"extra": e}) for e in ({""} | extras))]
+        known = seen.setdefault(name, [])
+        new = [r for r in active if r not in known]
+        known.extend(new)
+        todo.extend((r, set(r.extras)) for r in new)
+    return seen
+
+
+def test_the_core_admits_what_the_extras_need_so_installing_an_extra_downgrades_nothing():
+    """A package that only the test extra pulls in never caps a core dependency below what the core
+    allows, and every core dependency's installed version satisfies the core's specifier: so
+    `pip install -e .` then `pip install -e '.[test]'` has nothing to downgrade."""
+    import re
+
+    from packaging.requirements import Requirement
+
+    try:
+        import tomllib
+    except ModuleNotFoundError:  # Python 3.10
+        import tomli as tomllib
+
+    def norm(n: str) -> str:
+        return re.sub(r"[-_.]+", "-", n).lower()
+
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    core = [Requirement(r) for r in project["dependencies"]]
+    core = [r for r in core if r.marker is None or r.marker.evaluate()]
+    extras = [Requirement(r) for r in project["optional-dependencies"]["test"] if not r.startswith("evertgym")]
+    extras += [Requirement(r) for k in ("rl", "zoo", "docs") for r in project["optional-dependencies"][k] if not r.startswith("evertgym")]
+    core_closure = _closure(core, norm)
+    # what the core installs (its dependencies and theirs) and the caps the core's side puts on each
+    mine: dict[str, list] = {norm(r.name): list(r.specifier) for r in core}
+    for reqs in core_closure.values():
+        for r in reqs:
+            mine.setdefault(norm(r.name), []).extend(r.specifier)
+    found: list[str] = []
+    for name, reqs in _closure(extras, norm).items():
+        if name in core_closure:
+            continue  # the core pulls it in too: pip resolved its caps when installing the core
+        for req in reqs:
+            if norm(req.name) in mine and any(s.operator in ("<", "<=", "==", "~=") for s in req.specifier):
+                capped = [s for s in mine[norm(req.name)] if s.operator in ("<", "<=", "==", "~=")]
+                caps = {f"{req.name}{s.operator}{s.version}" for s in req.specifier if s.operator in ("<", "<=")}
+                if not capped and not caps <= _CAPS_ABOVE_EVERY_RELEASE:
+                    found.append(f"{name} -> {req}")
+    assert found == [], found
+    for req in core:
+        version = importlib.metadata.version(req.name)
+        assert req.specifier.contains(version, prereleases=True), f"{req.name} {version} is outside the core's {req}"
