@@ -2,7 +2,7 @@
 """Peer comparison: the banded tensile-test cantilever in evertgym, PyElastica and MuJoCo.
 
     pip install -e '.[bench]'        # the peers (optional: a missing one is reported as skipped)
-    PYTHONPATH=. python scripts/bench_peers.py [--json] [--repeats 3] [--docs DIR | --no-docs]
+    python scripts/bench_peers.py [--json] [--repeats 3] [--docs DIR | --no-docs]
 
 Runs :func:`evertgym.bench.peers.compare` (about a minute on a 2-core machine, most of it
 PyElastica's numba compilation and sweep), prints the table (or, with ``--json``, the whole
@@ -34,7 +34,7 @@ from evertgym.bench.peers import (
     format_table,
 )
 
-COMMAND = "PYTHONPATH=. python scripts/bench_peers.py"
+COMMAND = "python scripts/bench_peers.py"
 PACKAGES = ("numpy", "scipy", "pymunk", "pyelastica", "numba", "mujoco")
 
 

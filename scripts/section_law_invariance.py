@@ -4,7 +4,7 @@ Runs the paper's U-bend trials (12 per cell, its randomisation, 3 kPa) under
 ``SimConfig(section_law=True)`` with the given section-law parameters, for the reference
 settings and with ``mass_ratio`` 0.1 and 0.003, ``inertia_factor`` 10 and the step halved,
 one knob at a time, and prints the passes per cell and the largest change against the
-reference (the tube-capacity issue asks at most 2 of 12).  Stores under ``--out`` make a
+reference (the criterion: at most 2 of 12).  Stores under ``--out`` make a
 killed run resume::
 
     python scripts/section_law_invariance.py --casing-friction 2.4 --bend-loss 0.6
@@ -17,7 +17,10 @@ import json
 import time
 from pathlib import Path
 
-from evertgym.experiments.paper import _run, ubend_specs
+from evertgym.experiments.paper import ubend_specs
+from evertgym.experiments.trial import run_trial
+from evertgym.scoring.runner import run_trials
+from evertgym.scoring.store import ResultStore
 
 KNOBS = (("reference", {}), ("mass_ratio=0.1", {"mass_ratio": 0.1}), ("mass_ratio=0.003", {"mass_ratio": 0.003}),
          ("inertia_factor=10", {"inertia_factor": 10.0}), ("dt_s=0.001", {"dt_s": 0.001}))
@@ -43,7 +46,8 @@ def main() -> None:
         t0 = time.perf_counter()
         specs = ubend_specs(args.trials, radii=radii, reductions=reds, sim={**base, **knob},
                             scene_params={"wall_friction": args.casing_friction})
-        records = _run(specs, Path(args.out) / f"{name}.sqlite", "process", args.workers, False)
+        with ResultStore(Path(args.out) / f"{name}.sqlite") as store:
+            records = run_trials(specs, run_trial, store, backend="process", workers=args.workers, progress=False)
         cell: dict[tuple[float, float], int] = {(red, r): 0 for red in reds for r in radii}
         for rec in records:
             red = rec.spec.design["bands"][0]["reduction"] if rec.spec.design["bands"] else 0.0

@@ -5,8 +5,8 @@ the chosen radii and band reductions, and for every trial that fails measures th
 tip region with :func:`evertgym.sim.diagnostics.jam_anatomy`.  Prints one row per design and
 radius (medians over the failed trials) and, with ``--write``, the page docs/ubend_jams.md.
 
-    PYTHONPATH=. python scripts/ubend_jam_anatomy.py                  # about 1 min on 2 cores
-    PYTHONPATH=. python scripts/ubend_jam_anatomy.py --bands-mm 400,450,500 --write ''
+    python scripts/ubend_jam_anatomy.py                  # about 1 min on 2 cores
+    python scripts/ubend_jam_anatomy.py --bands-mm 400,450,500 --write ''
 
 ``--bands-mm`` moves the bands (before the per-trial +/- 25 mm shift), to test whether a
 band inside the free span would release the jam; ``--wall-friction`` overrides the casing's
@@ -76,7 +76,7 @@ def main(argv: list[str] | None = None) -> dict:
     if a.json:
         print(json.dumps(out))
     if a.write:
-        cmd = ("PYTHONPATH=. python scripts/ubend_jam_anatomy.py" + ("" if not bands_mm else f" --bands-mm {bands_text}")
+        cmd = ("python scripts/ubend_jam_anatomy.py" + ("" if not bands_mm else f" --bands-mm {bands_text}")
                + (f" --sim '{a.sim}'" if a.sim else ""))
         Path(a.write).write_text(
             "# Where the U-bend trials jam\n\n"

@@ -20,7 +20,7 @@ def test_zoo_files_are_up_to_date_with_the_toml_configs():
     files = zoo_files(sorted(AGENTS.glob("*.toml")))
     assert set(files) == {"ppo", "sac"}
     for algo, text in files.items():
-        assert (AGENTS / f"{algo}.yml").read_text() == text, f"run: python scripts/write_zoo_yaml.py ({algo}.yml is stale)"
+        assert (AGENTS / f"{algo}.yml").read_text() == text, f"run: python -m evertgym.agents.zoo ({algo}.yml is stale)"
 
 
 def test_zoo_entry_carries_every_hyperparameter_and_env_kwarg():
