@@ -312,8 +312,10 @@ def cmd_bench_env(args: argparse.Namespace) -> int:
     return 0
 
 
-def _sim_overrides(text: str | None, extra: dict | None = None) -> dict:
-    """``--sim`` JSON: SimConfig fields, checked (names, ranges, the engine they belong to) before work starts."""
+def sim_overrides(text: str | None, extra: dict | None = None) -> dict:
+    """``--sim`` JSON: SimConfig fields, checked (names, ranges, the engine they belong to) before work starts;
+    ``extra`` fields are added.  Raises :class:`CLIError` (a one-line ``ValueError``).  Scripts parse their
+    own ``--sim`` with it."""
     try:
         sim = dict(json.loads(text)) if text else {}
     except (json.JSONDecodeError, TypeError, ValueError) as e:
@@ -331,6 +333,9 @@ def _sim_overrides(text: str | None, extra: dict | None = None) -> dict:
     except (TypeError, ValueError) as e:
         raise CLIError(f"--sim: {e}") from None
     return sim
+
+
+_sim_overrides = sim_overrides
 
 
 def _number_list(text: str | None, flag: str, lo: float, hi: float, unit: str) -> list[float] | None:

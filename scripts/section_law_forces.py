@@ -3,10 +3,13 @@ family, under the rigid-column model and the section law (evertgym.experiments.c
 
 from __future__ import annotations
 
+import argparse
+
 from evertgym.experiments.capacity import CASES, max_tip_force
 
 
 def main() -> None:
+    argparse.ArgumentParser(description=__doc__).parse_args()  # about 1 min; --help says what it prints
     print("| case | model | max tip force (N) | p pi r^2 (N) | ratio | insertion (mm) |")
     print("|---|---|---:|---:|---:|---:|")
     for case in CASES:
