@@ -648,6 +648,27 @@ def cmd_train(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_tune(args: argparse.Namespace) -> int:
+    from evertgym.agents.tuned import shipped_dir, tune_operator, tuned_path
+    from evertgym.cli_guard import check_env_id
+    from evertgym.limits import MAX_EPISODES
+
+    check_env_id("--env", args.env)
+    if not 1 <= args.episodes <= MAX_EPISODES:
+        raise CLIError(f"--episodes = {args.episodes} is out of range: allowed [1, {MAX_EPISODES}]")
+    out = Path(args.out) if args.out else tuned_path(args.env, shipped_dir())
+    result = tune_operator(args.env, args.episodes, log=out.with_suffix(".jsonl"),
+                           on_result=None if args.json else (lambda rec: print(dumps(rec), flush=True)))
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(result, indent=2) + "\n", encoding="utf-8")
+    if args.json:
+        print(dumps({**result, "out": str(out)}))
+        return 0
+    print("best:", dumps(result["best"]))
+    print(f"-> {out} (the tuned baseline loads it on {args.env})")
+    return 0
+
+
 def cmd_eval(args: argparse.Namespace) -> int:
     from evertgym.agents.evaluate import OUTCOME_CHECKS, evaluate, outcome_check_kwargs
     from evertgym.agents.policies import on_trained_engine
@@ -887,6 +908,18 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
     tr.add_argument("--json", action="store_true", help="print the summary as JSON (for machines)")
     tr.set_defaults(func=cmd_train)
+
+    tu = _sub(sub, "tune", "tune the operator protocol on an env's training scenes: the tuned baseline's parameters")
+    tu.description = (tu.description or "") + (
+        ". Every point of a 36-point grid (start pressure, step, stall window, relaxation) runs on the same training "
+        "episodes (scene seeds below the held-out base); the best passes most, then has the lowest mean peak pressure. "
+        "Each point is appended to OUT.jsonl as it is produced, so a killed search resumes. Cost: 36 x --episodes episodes.")
+    tu.add_argument("--env", required=True, help="a registered env id, e.g. evertgym/Colon-v0")
+    tu.add_argument("--episodes", type=int, default=8, help="training episodes per grid point")
+    tu.add_argument("--out", default=None, metavar="FILE.json",
+                    help="result file (default: the env's file among the shipped agents, which `tuned` loads)")
+    tu.add_argument("--json", action="store_true", help=_JSON_HELP)
+    tu.set_defaults(func=cmd_tune)
 
     ev = _sub(sub, "eval", "evaluate policies side by side on the same held-out episodes")
     ev.add_argument("policies", nargs="+", help="a baseline (constant, operator, tuned, cycle, deflate), with parameters as "

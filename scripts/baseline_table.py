@@ -7,7 +7,7 @@
 For every env, every policy plays the same held-out episodes (episode and scene seeds
 1e9, 1e9 + 1, ...; training never draws them).  The default policies: ``constant`` at
 3 kPa, the paper's ``operator``, ``tuned`` (the operator with the parameters tuned on the
-env's own training scenes, ``scripts/tune_operator.py``), ``cycle`` with its historical
+env's own training scenes, ``evertgym tune``), ``cycle`` with its historical
 defaults (1 <-> 8 kPa, 2 s), ``cycle`` 0 <-> 3 kPa with a 1 s period, and ``deflate``
 (3 kPa; on a stall 0 kPa for 0.5 s).  Columns: success (successes / episodes) with its
 Wilson 95% interval, mean time to goal over the successes (s), mean peak pressure (kPa) and

@@ -223,7 +223,7 @@ def test_tuned_parameters_are_per_env_and_the_ubend_file_keeps_its_name(tmp_path
     with pytest.raises(ValueError, match="tuned on env 'evertgym/UBend-v0', not env_id = 'evertgym/Colon-v0'"):
         tuned.load_tuned(path=tuned.TUNED_PATH, env_id="evertgym/Colon-v0")
     monkeypatch.setattr(tuned, "shipped_dir", lambda: tmp_path)  # no tuned files at all
-    with pytest.raises(ValueError, match=r"no tuned operator parameters.*scripts/tune_operator.py --env evertgym/Colon-v0"):
+    with pytest.raises(ValueError, match=r"no tuned operator parameters.*evertgym tune --env evertgym/Colon-v0"):
         evaluate(["operator", "tuned"], "evertgym/Colon-v0", 1)  # refused before any episode
 
 

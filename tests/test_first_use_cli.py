@@ -71,3 +71,13 @@ def test_flag_and_file_ranges_are_worded_alike(capsys):
     with pytest.raises(SystemExit):
         main(["score", "--help"])
     assert "--bands-mm '' adds a bare robot" in " ".join(capsys.readouterr().out.split())
+
+
+def test_tune_checks_its_flags_in_one_line_and_writes_where_tuned_loads(capsys):
+    assert main(["tune", "--env", "evertgym/Nope-v0"]) == 2
+    assert "--env = 'evertgym/Nope-v0'" in capsys.readouterr().err
+    assert main(["tune", "--env", "evertgym/UBend-v0", "--episodes", "0"]) == 2
+    assert "--episodes = 0 is out of range" in capsys.readouterr().err
+    from evertgym.agents.tuned import shipped_dir, tuned_path
+
+    assert tuned_path("evertgym/Colon-v0", shipped_dir()).name == "tuned_operator_Colon-v0.json"
