@@ -249,6 +249,14 @@ def cmd_bench_accuracy(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_bench_rod(args: argparse.Namespace) -> int:
+    from evertgym.bench.rod import bench_rod, format_rod
+
+    rows = bench_rod(args.repeats)
+    print(dumps({"rows": rows}) if args.json else "\n".join(format_rod(rows)))
+    return 0
+
+
 def cmd_bench_peers(args: argparse.Namespace) -> int:
     from evertgym.bench.peers import compare, format_table
 
@@ -975,6 +983,10 @@ def build_parser() -> argparse.ArgumentParser:
                                   "(pip install -e '.[bench]')")
     bp.add_argument("--json", action="store_true", help=_JSON_HELP)
     bp.set_defaults(func=cmd_bench_peers)
+    br = _sub(bench_sub, "rod", "wall time of the Cosserat rod's shooting solve per tensile-test design and tip displacement")
+    br.add_argument("--repeats", type=int, default=5, help="solves per case (the median and the least are printed)")
+    br.add_argument("--json", action="store_true", help=_JSON_HELP)
+    br.set_defaults(func=cmd_bench_rod)
     bo = _sub(bench_sub, "pool", "scoring backends' throughput: serial, process pool (1, 2 workers), Dask; "
                                  "speed-up against 1 worker")
     bo.add_argument("--trials", type=int, default=16, help="trials per backend")

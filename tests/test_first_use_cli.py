@@ -81,3 +81,11 @@ def test_tune_checks_its_flags_in_one_line_and_writes_where_tuned_loads(capsys):
     from evertgym.agents.tuned import shipped_dir, tuned_path
 
     assert tuned_path("evertgym/Colon-v0", shipped_dir()).name == "tuned_operator_Colon-v0.json"
+
+
+def test_bench_rod_times_the_rod_solver_per_design(capsys):
+    assert main(["bench", "rod", "--repeats", "1", "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)["rows"]
+    assert len(rows) == 8 and all(r["median_ms"] > 0 for r in rows)
+    bare = next(r for r in rows if r["design"] == "no bands" and r["displacement_mm"] == 20.0)
+    assert bare["k_n_per_m"] == pytest.approx(11.36, abs=0.05)  # the stiffness table's no-band row
