@@ -677,6 +677,14 @@ def cmd_tune(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_paired(args: argparse.Namespace) -> int:
+    from evertgym.agents.stored import paired_difference, parse_env_kwargs
+
+    env_kwargs = parse_env_kwargs("--env-kwargs", args.env_kwargs, args.env)
+    print("\n".join(paired_difference(args.env, args.a, args.b, args.key, args.episodes, env_kwargs)))
+    return 0
+
+
 def cmd_eval(args: argparse.Namespace) -> int:
     from evertgym.agents.evaluate import OUTCOME_CHECKS, evaluate, outcome_check_kwargs
     from evertgym.agents.policies import on_trained_engine
@@ -953,6 +961,19 @@ def build_parser() -> argparse.ArgumentParser:
                          "engine; 3x the time) and report the episodes whose outcome moves with them (undecided)")
     ev.add_argument("--allow-engine-mismatch", action="store_true", help=_ENGINE_HELP)
     ev.set_defaults(func=cmd_eval)
+
+    pa = _sub(sub, "paired", "two policies on the same held-out episodes from evaluation stores (eval --db): the paired "
+                             "difference of a per-episode figure (95%% interval, Wilcoxon) and of their successes (McNemar)")
+    pa.add_argument("--env", required=True, help="the env id the episodes were played on")
+    pa.add_argument("--a", required=True, metavar="STORE:POLICY", help="the first policy's store and name")
+    pa.add_argument("--b", required=True, metavar="STORE:POLICY", help="the second policy's store and name")
+    pa.add_argument("--key", default="max_contact_force_n", help="the per-episode figure")
+    pa.add_argument("--episodes", type=int, default=200, help="held-out episodes to pair (seeds 1e9 + i)")
+    pa.add_argument("--env-kwargs", default=None, metavar="JSON",
+                    help='the env kwargs the episodes were played with (default {"regulator_tau_s": [0.1, 0.6]}, or {} for '
+                         'an id whose preset draws the lag itself); an outcome check\'s replay adds e.g. '
+                         '"sim_config": {"solver_tolerance": 0.0001}')
+    pa.set_defaults(func=cmd_paired)
 
     po = _sub(sub, "policies", "the shipped trained policies: env, observations, training config, held-out success")
     po.add_argument("--json", action="store_true", help=_JSON_HELP)
