@@ -677,6 +677,12 @@ def cmd_tune(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_headroom(args: argparse.Namespace) -> int:
+    from evertgym.agents.headroom import run
+
+    return run(args)
+
+
 def cmd_paired(args: argparse.Namespace) -> int:
     from evertgym.agents.stored import paired_difference, parse_env_kwargs
 
@@ -961,6 +967,13 @@ def build_parser() -> argparse.ArgumentParser:
                          "engine; 3x the time) and report the episodes whose outcome moves with them (undecided)")
     ev.add_argument("--allow-engine-mismatch", action="store_true", help=_ENGINE_HELP)
     ev.set_defaults(func=cmd_eval)
+
+    from evertgym.agents.headroom import add_arguments as headroom_arguments
+
+    hr = _sub(sub, "headroom", "which stored policies pass the held-out episodes a reference policy fails, and what a "
+                               "per-episode oracle over them would pass")
+    headroom_arguments(hr)
+    hr.set_defaults(func=cmd_headroom)
 
     pa = _sub(sub, "paired", "two policies on the same held-out episodes from evaluation stores (eval --db): the paired "
                              "difference of a per-episode figure (95%% interval, Wilcoxon) and of their successes (McNemar)")

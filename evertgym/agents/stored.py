@@ -2,7 +2,7 @@
 
 Every finished episode is a trial record keyed by its policy's label (the store's group), the env id (the scene's
 family), the env kwargs it was played with (the scene's params) and its seed; these helpers pick one env's held-out
-episodes out of a store, for the paired comparisons of ``evertgym paired`` and ``scripts/headroom.py``.
+episodes out of a store, for the paired comparisons of ``evertgym paired`` and ``evertgym headroom``.
 """
 
 from __future__ import annotations
