@@ -683,6 +683,12 @@ def cmd_headroom(args: argparse.Namespace) -> int:
     return run(args)
 
 
+def cmd_compare_runs(args: argparse.Namespace) -> int:
+    from evertgym.agents.compare import main as compare
+
+    return compare(args.first, args.second)
+
+
 def cmd_paired(args: argparse.Namespace) -> int:
     from evertgym.agents.stored import paired_difference, parse_env_kwargs
 
@@ -974,6 +980,12 @@ def build_parser() -> argparse.ArgumentParser:
                                "per-episode oracle over them would pass")
     headroom_arguments(hr)
     hr.set_defaults(func=cmd_headroom)
+
+    cr = _sub(sub, "compare-runs", "are two trained policies the same? Their weights (read as tensors only) and their "
+                                   "VecNormalize files (by bytes); exit 0 when both are identical, 1 when not")
+    cr.add_argument("first", help="a run folder (final.zip and final_vecnormalize.pkl), a shipped policy's folder or a checkpoint zip")
+    cr.add_argument("second", help="the same for the other policy")
+    cr.set_defaults(func=cmd_compare_runs)
 
     pa = _sub(sub, "paired", "two policies on the same held-out episodes from evaluation stores (eval --db): the paired "
                              "difference of a per-episode figure (95%% interval, Wilcoxon) and of their successes (McNemar)")

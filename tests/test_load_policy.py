@@ -81,12 +81,7 @@ def test_a_shipped_policy_was_trained_with_its_config_and_the_operator_ones_neve
 
 
 def test_compare_runs_tells_identical_policies_from_different_ones(capsys, tmp_path):
-    import importlib.util
-    from pathlib import Path
-
-    spec = importlib.util.spec_from_file_location("compare_runs", Path(__file__).parents[1] / "scripts" / "compare_runs.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    import evertgym.agents.compare as mod  # evertgym compare-runs
     ubend, tortuous = shipped_dir() / "ubend_ppo_operator", shipped_dir() / "tortuous_ppo_operator"
     assert mod.main(str(ubend), str(ubend)) == 0
     assert "largest difference 0 (identical)" in capsys.readouterr().out

@@ -1,8 +1,7 @@
-#!/usr/bin/env python
-"""Are two trained policies the same policy?  Compares their weights and normaliser.
+"""Are two trained policies the same policy?  Compares their weights and normaliser (``evertgym compare-runs``).
 
-    python scripts/compare_runs.py agents/ubend_ppo_operator runs/ubend_ppo_operator_seed0
-    python scripts/compare_runs.py agents/colon_ppo_operator runs/colon_ppo_operator_seed0/checkpoints/model_80000_steps.zip
+    evertgym compare-runs agents/ubend_ppo_operator runs/ubend_ppo_operator_seed0
+    evertgym compare-runs agents/colon_ppo_operator runs/colon_ppo_operator_seed0/checkpoints/model_80000_steps.zip
 
 Each argument is a run folder (or a shipped policy's folder) holding ``final.zip`` and
 ``final_vecnormalize.pkl``, or a checkpoint ``model_<N>_steps.zip`` whose normaliser
@@ -16,13 +15,14 @@ either way.  Exit status 0 when the weights and the normaliser are identical, 1 
 2 when a model file is missing.
 """
 
+from __future__ import annotations
+
 import io
 import sys
 import zipfile
 from pathlib import Path
 
-import torch
-
+from evertgym._extras import require
 from evertgym.agents.trust import sha256_of
 
 
@@ -34,8 +34,11 @@ def model_files(arg: str) -> tuple[Path, Path]:
     return p / "final.zip", p / "final_vecnormalize.pkl"
 
 
-def weights(model_zip: Path) -> dict[str, torch.Tensor]:
+def weights(model_zip: Path) -> dict:
     """The policy's tensors from an SB3 zip (tensors only: no code runs)."""
+    require("evertgym compare-runs", "torch")
+    import torch
+
     with zipfile.ZipFile(model_zip) as z:
         return torch.load(io.BytesIO(z.read("policy.pth")), map_location="cpu", weights_only=True)
 
@@ -44,7 +47,7 @@ def main(a: str, b: str) -> int:
     (za, na), (zb, nb) = model_files(a), model_files(b)
     for arg, z in ((a, za), (b, zb)):
         if not z.is_file():
-            print(f"compare_runs: error: run = {arg!r} has no model file {str(z)!r}", file=sys.stderr)
+            print(f"evertgym: error: run = {arg!r} has no model file {str(z)!r}", file=sys.stderr)
             return 2
     wa, wb = weights(za), weights(zb)
     if wa.keys() != wb.keys():
