@@ -677,6 +677,12 @@ def cmd_tune(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_baselines(args: argparse.Namespace) -> int:
+    from evertgym.agents.baseline_table import run
+
+    return run(args)
+
+
 def cmd_headroom(args: argparse.Namespace) -> int:
     from evertgym.agents.headroom import run
 
@@ -974,7 +980,13 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--allow-engine-mismatch", action="store_true", help=_ENGINE_HELP)
     ev.set_defaults(func=cmd_eval)
 
+    from evertgym.agents.baseline_table import add_arguments as baselines_arguments
     from evertgym.agents.headroom import add_arguments as headroom_arguments
+
+    bl = _sub(sub, "baselines", "the hand-written rules (and any policies) side by side on the same held-out episodes of "
+                                "each env: the tables of docs/results/")
+    baselines_arguments(bl)
+    bl.set_defaults(func=cmd_baselines)
 
     hr = _sub(sub, "headroom", "which stored policies pass the held-out episodes a reference policy fails, and what a "
                                "per-episode oracle over them would pass")

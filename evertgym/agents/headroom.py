@@ -2,7 +2,7 @@
 (``evertgym headroom``).
 
 Reads every policy's held-out episodes of one env from evaluation stores (``evertgym eval --db``,
-``scripts/baseline_table.py --db``) and prints, per policy with all ``--episodes`` episodes stored: its passes, how
+``evertgym baselines --db``) and prints, per policy with all ``--episodes`` episodes stored: its passes, how
 many of the reference's failures it passes and how many of the reference's passes it fails; then what a per-episode
 oracle over all of them (the best stored policy chosen for each episode, which no policy can do) would pass, and the
 episodes every stored policy fails.  A reference whose failures no other policy passes leaves a residual around it

@@ -1,4 +1,4 @@
-"""Held-out episodes read back from evaluation stores (``evertgym eval --db``, ``scripts/baseline_table.py --db``).
+"""Held-out episodes read back from evaluation stores (``evertgym eval --db``, ``evertgym baselines --db``).
 
 Every finished episode is a trial record keyed by its policy's label (the store's group), the env id (the scene's
 family), the env kwargs it was played with (the scene's params) and its seed; these helpers pick one env's held-out

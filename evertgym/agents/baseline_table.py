@@ -1,8 +1,7 @@
-#!/usr/bin/env python
-"""The hand-written baselines side by side on the same held-out episodes of each env (no training).
+"""The hand-written baselines side by side on the same held-out episodes of each env (``evertgym baselines``).
 
-    python scripts/baseline_table.py [--episodes 20] [--envs evertgym/Colon-v0,...] [--policies ...] [--workers 1]
-                                     [--env-kwargs JSON] [--db runs/baseline_table.sqlite] [--json]
+    evertgym baselines [--episodes 20] [--envs evertgym/Colon-v0,...] [--policies ...] [--workers 1]
+                       [--env-kwargs JSON] [--db runs/baseline_table.sqlite] [--json]
 
 For every env, every policy plays the same held-out episodes (episode and scene seeds
 1e9, 1e9 + 1, ...; training never draws them).  The default policies: ``constant`` at
@@ -25,12 +24,10 @@ import argparse
 import json
 import math
 import sys
+from typing import Any
 
-import evertgym  # noqa: F401
-from evertgym.agents.evaluate import evaluate
-from evertgym.agents.policies import for_env, make_policy
-from evertgym.cli_guard import check_env_kwargs
-from evertgym.env.eversion_env import HELD_OUT_SEED_BASE
+# the evaluation and env modules load in run(): `evertgym --help` builds these flags without the simulator
+HELD_OUT_SEED_BASE = 1_000_000_000  # evertgym.env.eversion_env.HELD_OUT_SEED_BASE (tests check they agree)
 
 ENVS = ["evertgym/Colon-v0", "evertgym/UBend-v0", "evertgym/Tortuous-v0"]
 POLICIES = ["constant:pressure_kpa=3", "operator", "tuned", "cycle", "cycle:low_kpa=0,high_kpa=3,period_s=1",
@@ -45,11 +42,13 @@ def _row(r: dict) -> str:
             f" {r['mean_peak_pressure_bend_kpa']:>9.2f} {r['peak_before_bend_episodes']:>9d}")
 
 
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+def add_arguments(ap: argparse.ArgumentParser) -> None:
+    """The command's flags (``evertgym baselines``)."""
     ap.add_argument("--episodes", type=int, default=20, help="held-out episodes per env and policy")
-    ap.add_argument("--envs", default=",".join(ENVS), help="comma-separated env ids")
-    ap.add_argument("--policies", default=";".join(POLICIES), help="semicolon-separated policies (CLI spelling)")
+    ap.add_argument("--envs", default=",".join(ENVS), help="comma-separated env ids; by default Colon-v0, UBend-v0 and Tortuous-v0")
+    ap.add_argument("--policies", default=";".join(POLICIES),
+                    help="semicolon-separated policies (CLI spelling); by default the six standard rules: constant 3 kPa, "
+                         "operator, tuned, cycle (1 <-> 8 kPa, 2 s), cycle 0 <-> 3 kPa (1 s) and deflate (3 kPa, 0 kPa for 0.5 s)")
     ap.add_argument("--workers", type=int, default=1, help="processes to spread the episodes over")
     ap.add_argument("--env-kwargs", default=None, metavar="JSON",
                     help='env arguments for every env and policy, e.g. \'{"regulator_tau_s": [0.1, 0.6]}\'')
@@ -58,18 +57,21 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--json", action="store_true", help="print the rows as JSON")
     ap.add_argument("--trust-model", action="store_true",
                     help="load model files in --policies that are not shipped policies (a run's final.zip): model files are code")
-    args = ap.parse_args(argv)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Play and print the table (or JSON) for parsed flags; bad input raises a one-line ``ValueError``."""
+    from evertgym.agents.evaluate import evaluate
+    from evertgym.agents.policies import for_env, make_policy
+    from evertgym.cli_guard import check_env_kwargs
+
     envs = [e.strip() for e in args.envs.split(",") if e.strip()]
     policies = [p.strip() for p in args.policies.split(";") if p.strip()]
     out: dict[str, list[dict]] = {}
-    try:
-        for env_id in envs:
-            kwargs = check_env_kwargs("--env-kwargs", args.env_kwargs, env_id)
-            out[env_id] = evaluate(policies, env_id, args.episodes, env_kwargs=kwargs, workers=args.workers,
-                                   trust=args.trust_model, db=args.db, progress=True)
-    except ValueError as e:
-        print(f"baseline_table: error: {e}", file=sys.stderr)
-        return 2
+    for env_id in envs:
+        kwargs = check_env_kwargs("--env-kwargs", args.env_kwargs, env_id)
+        out[env_id] = evaluate(policies, env_id, args.episodes, env_kwargs=kwargs, workers=args.workers,
+                               trust=args.trust_model, db=args.db, progress=True)
     if args.json:
         print(json.dumps(out, indent=2))
         return 0
@@ -84,11 +86,23 @@ def main(argv: list[str] | None = None) -> int:
         for r in rows:
             print(_row(r))
         if any(p.split(":")[0] == "tuned" for p in policies):
-            t = make_policy(for_env("tuned", env_id))
-            print(f"  tuned: operator tuned on {t.tuned_on} training scenes: start {t.start_kpa:g} kPa, step {t.step_kpa:g} kPa, "  # type: ignore[attr-defined]
+            t: Any = make_policy(for_env("tuned", env_id))
+            print(f"  tuned: operator tuned on {t.tuned_on} training scenes: start {t.start_kpa:g} kPa, step {t.step_kpa:g} kPa, "
                   f"stall window {t.stall_s:g} s, relax {t.relax_kpa_per_s:g} kPa/s")
         print()
     return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m evertgym.agents.baseline_table``: the same as ``evertgym baselines``."""
+    ap = argparse.ArgumentParser(prog="evertgym baselines", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    add_arguments(ap)
+    args = ap.parse_args(argv)
+    try:
+        return run(args)
+    except ValueError as e:
+        print(f"evertgym baselines: error: {e}", file=sys.stderr)
+        return 2
 
 
 if __name__ == "__main__":
