@@ -59,17 +59,35 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
                     help="load model files in --policies that are not shipped policies (a run's final.zip): model files are code")
 
 
+def _env_kwargs(text: str | None, env_id: str) -> dict:
+    """``--env-kwargs``: a JSON object of env arguments, checked by building the env once (its own one-line errors)."""
+    import gymnasium as gym
+
+    if text is None:
+        return {}
+    try:
+        kwargs = json.loads(text)
+    except json.JSONDecodeError as e:
+        raise ValueError(f"--env-kwargs = {text!r:.80}: not JSON ({e.msg} at character {e.pos})") from None
+    if not isinstance(kwargs, dict):
+        raise ValueError(f"--env-kwargs = {text!r:.80}: expected a JSON object of env arguments")
+    try:
+        gym.make(env_id, **kwargs).close()
+    except TypeError as e:  # an unknown argument name
+        raise ValueError(f"--env-kwargs: {str(e).split(' was raised from')[0]}") from None
+    return kwargs
+
+
 def run(args: argparse.Namespace) -> int:
     """Play and print the table (or JSON) for parsed flags; bad input raises a one-line ``ValueError``."""
     from evertgym.agents.evaluate import evaluate
     from evertgym.agents.policies import for_env, make_policy
-    from evertgym.cli_guard import check_env_kwargs
 
     envs = [e.strip() for e in args.envs.split(",") if e.strip()]
     policies = [p.strip() for p in args.policies.split(";") if p.strip()]
     out: dict[str, list[dict]] = {}
     for env_id in envs:
-        kwargs = check_env_kwargs("--env-kwargs", args.env_kwargs, env_id)
+        kwargs = _env_kwargs(args.env_kwargs, env_id)
         out[env_id] = evaluate(policies, env_id, args.episodes, env_kwargs=kwargs, workers=args.workers,
                                trust=args.trust_model, db=args.db, progress=True)
     if args.json:
