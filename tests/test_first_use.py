@@ -212,7 +212,7 @@ def test_policies_lists_every_shipped_policy_with_env_observations_config_and_he
 
 
 def test_the_held_out_index_agrees_with_the_evaluations_in_docs():
-    done = subprocess.run([sys.executable, str(ROOT / "scripts" / "held_out_index.py"), "--check"], capture_output=True, text=True,
+    done = subprocess.run([sys.executable, "-m", "evertgym.agents.held_out", "--check"], capture_output=True, text=True,
                           timeout=120)
     assert done.returncode == 0, done.stderr
 

@@ -302,7 +302,7 @@ def policy_cards() -> list[dict]:
     (``deterministic``), its training config (``config``, a path; None if not shipped) and
     its held-out success (``held_out``: ``episodes``, ``successes``, ``ci_low``,
     ``ci_high``, the evaluation's ``env_kwargs``, ``engine`` and ``source``, from the shipped
-    ``held_out.json`` written by ``scripts/held_out_index.py``; None if not listed), the engine
+    ``held_out.json`` written by ``python -m evertgym.agents.held_out``; None if not listed), the engine
     it was trained on (``engine``: its ``final_env.json``'s, else the one its ``sim_config``
     names, else the default) and whether it senses the tip (``senses_tip``: a tip force sensor,
     which an operator does not have).  Only JSON is read: no model is loaded."""

@@ -1,8 +1,7 @@
-#!/usr/bin/env python
 """Write ``agents/held_out.json``: each shipped policy's held-out success, from the evaluations in docs/results/.
 
-    python scripts/held_out_index.py           # (re)write agents/held_out.json
-    python scripts/held_out_index.py --check   # exit 1 if the file differs from docs/results/
+    python -m evertgym.agents.held_out           # (re)write agents/held_out.json (in a checkout)
+    python -m evertgym.agents.held_out --check   # exit 1 if the file differs from docs/results/
 
 ``evertgym policies`` prints these numbers (the index ships with the policies; docs/ does
 not).  Every number comes from one of the ``evertgym eval ... --json`` outputs kept in
@@ -18,7 +17,7 @@ import json
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]  # the checkout: docs/results/ is not installed
 OUT = ROOT / "agents" / "held_out.json"
 
 
@@ -40,7 +39,7 @@ def build() -> dict:
     missing = sorted(set(names) - set(out))
     if missing:
         sys.exit(f"no held-out evaluation in docs/results/*_eval.json for {missing}")
-    return {"source": "python scripts/held_out_index.py (from docs/results/*_eval.json)", "policies": out}
+    return {"source": "python -m evertgym.agents.held_out (from docs/results/*_eval.json)", "policies": out}
 
 
 def main() -> int:
@@ -50,7 +49,7 @@ def main() -> int:
     text = json.dumps(build(), indent=2) + "\n"
     if args.check:
         if not OUT.is_file() or OUT.read_text(encoding="utf-8") != text:
-            print(f"{OUT.relative_to(ROOT)} differs from docs/results/results/*_eval.json: run python scripts/held_out_index.py", file=sys.stderr)
+            print(f"{OUT.relative_to(ROOT)} differs from docs/results/*_eval.json: run python -m evertgym.agents.held_out", file=sys.stderr)
             return 1
         return 0
     OUT.write_text(text, encoding="utf-8")
