@@ -249,6 +249,14 @@ def cmd_bench_accuracy(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_bench_render(args: argparse.Namespace) -> int:
+    from evertgym.bench.render import bench_render, format_render
+
+    rows = bench_render(args.frames)
+    print(dumps({"rows": rows}) if args.json else "\n".join(format_render(rows)))
+    return 0
+
+
 def cmd_bench_rod(args: argparse.Namespace) -> int:
     from evertgym.bench.rod import bench_rod, format_rod
 
@@ -1041,6 +1049,10 @@ def build_parser() -> argparse.ArgumentParser:
                                   "(pip install -e '.[bench]')")
     bp.add_argument("--json", action="store_true", help=_JSON_HELP)
     bp.set_defaults(func=cmd_bench_peers)
+    bn = _sub(bench_sub, "render", "cost of a rendered frame against an env step (Colon-v0, compliant walls)")
+    bn.add_argument("--frames", type=int, default=30, help="calls timed per row (their median is printed)")
+    bn.add_argument("--json", action="store_true", help=_JSON_HELP)
+    bn.set_defaults(func=cmd_bench_render)
     br = _sub(bench_sub, "rod", "wall time of the Cosserat rod's shooting solve per tensile-test design and tip displacement")
     br.add_argument("--repeats", type=int, default=5, help="solves per case (the median and the least are printed)")
     br.add_argument("--json", action="store_true", help=_JSON_HELP)
