@@ -89,3 +89,10 @@ def test_bench_rod_times_the_rod_solver_per_design(capsys):
     assert len(rows) == 8 and all(r["median_ms"] > 0 for r in rows)
     bare = next(r for r in rows if r["design"] == "no bands" and r["displacement_mm"] == 20.0)
     assert bare["k_n_per_m"] == pytest.approx(11.36, abs=0.05)  # the stiffness table's no-band row
+
+
+def test_bench_render_times_a_frame_against_a_step(capsys):
+    assert main(["bench", "render", "--frames", "1", "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)["rows"]
+    assert [r["what"] for r in rows] == ["env step (0.1 s simulated)", "frame, evertgym.render", "frame, matplotlib render_rgb"]
+    assert rows[0]["x_step"] == 1.0 and all(r["ms"] > 0 for r in rows)

@@ -1,6 +1,6 @@
 """The numbers of docs/robustness.md: the bounded event log and the 1000-band build.
 
-    python scripts/robustness_numbers.py [--minutes 10] [--json]
+    python -m evertgym.bench.robustness [--minutes 10] [--json]
 
 * event log: an EversionSim in a Tortuous-v0 scene with its pressure command cycling
   between 0 and 8 kPa at 20 Hz for ``--minutes`` simulated minutes; the process's RSS and
@@ -14,8 +14,6 @@ import argparse
 import json
 import time
 
-import psutil
-
 from evertgym.design import Band, TubeDesign
 from evertgym.limits import MAX_EVENTS
 from evertgym.scenes import SceneSpec, make_scene
@@ -23,7 +21,12 @@ from evertgym.sim import EversionSim
 
 
 def event_log_memory(minutes: float) -> dict:
-    """RSS (MiB) and kept events after 1 simulated minute and after ``minutes``."""
+    """RSS (MiB) and kept events after 1 simulated minute and after ``minutes`` (needs psutil: the test extra)."""
+    from evertgym._extras import require
+
+    require("the event log's memory figures", "psutil")
+    import psutil
+
     proc = psutil.Process()
     sim = EversionSim(TubeDesign(length_m=0.9), scene=make_scene(SceneSpec("tortuous", {}, 0)))
     out: dict = {"minutes": minutes, "max_events": MAX_EVENTS}
