@@ -1,6 +1,6 @@
-"""Write docs/scene_gallery.png: one panel per scene family, titled with its parameters.
+"""The scene gallery (docs/scene_gallery.png): one panel per scene family, titled with its parameters.
 
-Usage: ``python scripts/scene_gallery.py [--out docs/scene_gallery.png] [--seed 3]``
+Usage: ``python -m evertgym.scenes.gallery [--out docs/scene_gallery.png] [--seed 3]``
 """
 
 from __future__ import annotations
@@ -17,7 +17,6 @@ from matplotlib.figure import Figure
 from evertgym.scenes import FAMILIES, make_scene
 from evertgym.scenes.render import draw_scene
 
-ROOT = Path(__file__).resolve().parent.parent
 #: Parameters shown in each panel's title (the rest are at their defaults or drawn).
 SHOWN = {
     "straight": ("length_mm", "lumen_mm"),
@@ -48,20 +47,22 @@ def pushed_colon(force: float = 0.2, steps: int = 300):
     space = pymunk.Space()
     handles = scene.build(space)
     net = handles.network
+    assert net is not None  # the colon's walls are compliant
     s, e = scene.project(net.position)
     i = int(np.argmin(np.where(e < 0, np.abs(s - 0.39), np.inf)))  # right (outer) wall, just into the bend
     body = handles.bodies[i]
     for _ in range(steps):
-        body.apply_force_at_world_point(tuple(force * net.normal[i]), tuple(body.position))
+        fx, fy = (float(v) for v in force * net.normal[i])
+        body.apply_force_at_world_point((fx, fy), tuple(body.position))
         space.step(1e-3)
     return scene, handles, scene.point_at(np.linspace(0.0, 0.36, 73))
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", type=Path, default=ROOT / "docs" / "scene_gallery.png")
-    ap.add_argument("--seed", type=int, default=3)
-    args = ap.parse_args()
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(prog="python -m evertgym.scenes.gallery", description=__doc__.splitlines()[0])
+    ap.add_argument("--out", type=Path, default=Path("docs") / "scene_gallery.png", help="the PNG to write")
+    ap.add_argument("--seed", type=int, default=3, help="the scene seed of every panel")
+    args = ap.parse_args(argv)
     scenes = [make_scene({"family": name, "params": {}, "seed": args.seed}) for name in FAMILIES]
     cols = 4
     rows = int(np.ceil(len(scenes) / cols))
