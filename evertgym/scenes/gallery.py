@@ -53,7 +53,7 @@ def pushed_colon(force: float = 0.2, steps: int = 300):
     body = handles.bodies[i]
     for _ in range(steps):
         fx, fy = (float(v) for v in force * net.normal[i])
-        body.apply_force_at_world_point((fx, fy), tuple(body.position))
+        body.apply_force_at_world_point((fx, fy), (float(body.position.x), float(body.position.y)))
         space.step(1e-3)
     return scene, handles, scene.point_at(np.linspace(0.0, 0.36, 73))
 
