@@ -1,12 +1,12 @@
-"""Where and why the paper's U-bend trials jam, design by design (issue 6's banded miss).
+"""Where and why the paper's U-bend trials jam, design by design (``python -m evertgym.experiments.ubend_jams``).
 
 Runs the trials of ``evertgym reproduce ubend`` (same specs, seeds and randomisation) for
 the chosen radii and band reductions, and for every trial that fails measures the stalled
 tip region with :func:`evertgym.sim.diagnostics.jam_anatomy`.  Prints one row per design and
 radius (medians over the failed trials) and, with ``--write``, the page docs/ubend_jams.md.
 
-    python scripts/ubend_jam_anatomy.py                  # about 1 min on 2 cores
-    python scripts/ubend_jam_anatomy.py --bands-mm 400,450,500 --write ''
+    python -m evertgym.experiments.ubend_jams                  # about 1 min on 2 cores
+    python -m evertgym.experiments.ubend_jams --bands-mm 400,450,500 --write ''
 
 ``--bands-mm`` moves the bands (before the per-trial +/- 25 mm shift), to test whether a
 band inside the free span would release the jam; ``--wall-friction`` overrides the casing's
@@ -17,23 +17,19 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-
-from evertgym.experiments import paper  # noqa: E402
-from evertgym.experiments.trial import run_trial  # noqa: E402
-from evertgym.scoring.runner import run_trials  # noqa: E402
-from evertgym.scoring.store import ResultStore  # noqa: E402
-from evertgym.sim import SimConfig  # noqa: E402
+from evertgym.experiments import paper
+from evertgym.experiments.trial import run_trial
+from evertgym.scoring.runner import run_trials
+from evertgym.scoring.store import ResultStore
+from evertgym.sim import SimConfig
 
 
 def main(argv: list[str] | None = None) -> dict:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(prog="python -m evertgym.experiments.ubend_jams", description=__doc__.splitlines()[0])
     ap.add_argument("--radii", default="35,32.5,30,25", help="U-bend inner radii (mm)")
     ap.add_argument("--reductions", default="0,0.1,0.2,0.3")
     ap.add_argument("--trials", type=int, default=12)
@@ -41,7 +37,7 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--wall-friction", type=float, default=None,
                     help="the casing's friction factor (default: the ubend family's, fitted on the no-band rows)")
     ap.add_argument("--workers", type=int, default=2)
-    ap.add_argument("--write", default=str(ROOT / "docs" / "ubend_jams.md"), help="page to write ('' for none)")
+    ap.add_argument("--write", default=str(Path("docs") / "ubend_jams.md"), help="page to write ('' for none)")
     ap.add_argument("--json", action="store_true")
     ap.add_argument("--sim", default=None, help='SimConfig overrides as JSON, e.g. \'{"engine": "dynamic"}\' (default: none)')
     a = ap.parse_args(argv)
@@ -76,7 +72,7 @@ def main(argv: list[str] | None = None) -> dict:
     if a.json:
         print(json.dumps(out))
     if a.write:
-        cmd = ("python scripts/ubend_jam_anatomy.py" + ("" if not bands_mm else f" --bands-mm {bands_text}")
+        cmd = ("python -m evertgym.experiments.ubend_jams" + ("" if not bands_mm else f" --bands-mm {bands_text}")
                + (f" --sim '{a.sim}'" if a.sim else ""))
         Path(a.write).write_text(
             "# Where the U-bend trials jam\n\n"
