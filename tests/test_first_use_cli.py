@@ -96,3 +96,13 @@ def test_bench_render_times_a_frame_against_a_step(capsys):
     rows = json.loads(capsys.readouterr().out)["rows"]
     assert [r["what"] for r in rows] == ["env step (0.1 s simulated)", "frame, evertgym.render", "frame, matplotlib render_rgb"]
     assert rows[0]["x_step"] == 1.0 and all(r["ms"] > 0 for r in rows)
+
+
+def test_the_length_benchmark_runs_one_short_robot():
+    import subprocess
+    import sys
+
+    done = subprocess.run([sys.executable, "-m", "evertgym.bench.length", "--lengths-m", "0.2", "--repeats", "1", "--engine",
+                           "dynamic"], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "length_m" in done.stdout and "    0.20" in done.stdout

@@ -1,15 +1,16 @@
-#!/usr/bin/env python
 """Cost per simulated second against total robot length (the active set at work).
 
-    python scripts/bench_sim_length.py [--lengths-m 0.2,0.8,2.0] [--pressure-kpa 3] [--repeats 3] [--engine dynamic]
+    python -m evertgym.bench.length [--lengths-m 0.2,0.8,2.0] [--pressure-kpa 3] [--repeats 3] [--engine dynamic]
 
 Each robot (40 mm, no bands) grows at constant pressure through a 55 mm pipe with a
 90-degree bend (inner radius 60 mm) 100 mm from the base and a straight pipe after it.
 Printed per length (medians over repeats): the wall time per simulated second over the
 whole growth, over the last simulated second of growth (the tip far from the base, the
-active set full: the figure the issue's 1.5x bound is read on) and while holding at full
+active set full: the figure a 1.5x bound is read on) and while holding at full
 length, with the ratio of each to the shortest robot; and the active/total segments.
 """
+
+from __future__ import annotations
 
 import argparse
 import statistics
