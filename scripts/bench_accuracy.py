@@ -231,7 +231,7 @@ def markdown(result: dict, lines: list[str], skip_lines: list[str]) -> str:
         "## Elsewhere",
         "",
         "* Against PyElastica and MuJoCo at matched (1%) accuracy: [peers.md](peers.md) "
-        "(`python scripts/bench_peers.py`).",
+        "(`python -m evertgym.bench.peers_page`).",
         "* Numerical stress tests (hypothesis): [stress.md](stress.md).",
         "* Env steps per second against an earlier build, side by side, and where an env step's time goes: "
         "[speed.md](speed.md) (`evertgym bench env --against REV`).",

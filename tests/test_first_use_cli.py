@@ -106,3 +106,14 @@ def test_the_length_benchmark_runs_one_short_robot():
                            "dynamic"], capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr[-2000:]
     assert "length_m" in done.stdout and "    0.20" in done.stdout
+
+
+def test_the_peers_page_is_written_with_its_command(tmp_path):
+    import subprocess
+    import sys
+
+    done = subprocess.run([sys.executable, "-m", "evertgym.bench.peers_page", "--repeats", "1", "--docs", str(tmp_path)],
+                          capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
+    page = (tmp_path / "peers.md").read_text()
+    assert "python -m evertgym.bench.peers_page" in page and "scripts/" not in page

@@ -1,8 +1,7 @@
-#!/usr/bin/env python
 """Peer comparison: the banded tensile-test cantilever in evertgym, PyElastica and MuJoCo.
 
     pip install -e '.[bench]'        # the peers (optional: a missing one is reported as skipped)
-    python scripts/bench_peers.py [--json] [--repeats 3] [--docs DIR | --no-docs]
+    python -m evertgym.bench.peers_page [--json] [--repeats 3] [--docs DIR | --no-docs]
 
 Runs :func:`evertgym.bench.peers.compare` (about a minute on a 2-core machine, most of it
 PyElastica's numba compilation and sweep), prints the table (or, with ``--json``, the whole
@@ -34,13 +33,13 @@ from evertgym.bench.peers import (
     format_table,
 )
 
-COMMAND = "python scripts/bench_peers.py"
+COMMAND = "python -m evertgym.bench.peers_page"
 PACKAGES = ("numpy", "scipy", "pymunk", "pyelastica", "numba", "mujoco")
 
 
 def versions() -> dict:
     """Versions of the engines and what they run on, and the machine."""
-    out = {"python": platform.python_version(), "machine": f"{platform.machine()}, {os.cpu_count()} CPUs"}
+    out: dict[str, str | None] = {"python": platform.python_version(), "machine": f"{platform.machine()}, {os.cpu_count()} CPUs"}
     for name in PACKAGES:
         try:
             out[name] = importlib.metadata.version(name)
@@ -149,7 +148,8 @@ def markdown(result: dict) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = argparse.ArgumentParser(prog="python -m evertgym.bench.peers_page", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--json", action="store_true", help="print the whole result as JSON instead of the table")
     p.add_argument("--repeats", type=int, default=REPEATS, help="timed repeats of the chosen setting (best counts)")
     p.add_argument("--docs", type=Path, default=Path("docs"), help="where peers.md goes")
