@@ -245,7 +245,7 @@ def cmd_bench_accuracy(args: argparse.Namespace) -> int:
               f"{r['wall_s_per_sim_s']:>9.4f}{mark}")
     print("ubend: share of U-bend outcomes unlike the finest setting's; vs_qs: unlike the quasi-static engine's")
     print(f"default (fastest within 3%): {result['default'].get('label', result['default'])}")
-    print("docs/benchmarks.md is written by: python scripts/bench_accuracy.py")
+    print("docs/benchmarks.md is written by: python -m evertgym.bench.accuracy_page")
     return 0
 
 

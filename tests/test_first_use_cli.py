@@ -117,3 +117,15 @@ def test_the_peers_page_is_written_with_its_command(tmp_path):
     assert done.returncode == 0, done.stderr[-2000:]
     page = (tmp_path / "peers.md").read_text()
     assert "python -m evertgym.bench.peers_page" in page and "scripts/" not in page
+
+
+@pytest.mark.slow
+def test_the_accuracy_page_is_written_with_its_command(tmp_path):
+    import subprocess
+    import sys
+
+    done = subprocess.run([sys.executable, "-m", "evertgym.bench.accuracy_page", "--quick", "--docs", str(tmp_path)],
+                          capture_output=True, text=True, timeout=900)
+    assert done.returncode == 0, done.stderr[-2000:]
+    page = (tmp_path / "benchmarks.md").read_text()
+    assert "python -m evertgym.bench.accuracy_page" in page and (tmp_path / "benchmarks_pareto.png").is_file()

@@ -1,8 +1,7 @@
-#!/usr/bin/env python
 """Accuracy of the simulator's fidelity settings against the rod model, and their cost.
 
-    python scripts/bench_accuracy.py [--quick] [--json FILE] [--log FILE [--resume]] [--docs DIR | --no-docs]
-    python scripts/bench_accuracy.py --render FILE [--docs DIR | --no-docs]
+    python -m evertgym.bench.accuracy_page [--quick] [--json FILE] [--log FILE [--resume]] [--docs DIR | --no-docs]
+    python -m evertgym.bench.accuracy_page --render FILE [--docs DIR | --no-docs]
 
 Runs :func:`evertgym.bench.accuracy.run_sweep` and :func:`evertgym.bench.accuracy.skip_costs`
 (about 4.5 minutes on a 2-core machine; ``--quick`` about 30 s), prints both tables and writes
@@ -39,7 +38,7 @@ import scipy  # noqa: E402
 
 from evertgym.bench.accuracy import FORCE_ERROR_BUDGET, PARETO_RTOL, TIMING_REPEATS, run_sweep, skip_costs  # noqa: E402
 
-COMMAND = "python scripts/bench_accuracy.py"
+COMMAND = "python -m evertgym.bench.accuracy_page"
 FIELD_HEADERS = (("segment_length_m", "ds_mm", 1e3, "{:.1f}"), ("dt_s", "dt_ms", 1e3, "{:.0f}"),
                  ("iterations", "iter", 1, "{:.0f}"), ("inertia_factor", "inertia", 1, "{:g}"),
                  ("mass_ratio", "mass", 1, "{:g}"), ("active_length_m", "active_m", 1, "{:g}"))
