@@ -40,6 +40,7 @@ LAYERS: dict[str, float] = {
     "experiments": 7.5,
     "bench": 8,
     "cli": 9,
+    "apidocs": 9.5,  # python -m evertgym.apidocs: imports every module to document it
     "cli_guard": 8.5,
 }
 ROOT_MAY_IMPORT = {"evertgym.env", "evertgym._version"}

@@ -76,7 +76,7 @@ def test_core_works_without_the_rl_extra():
 
 def test_api_reference_builds_without_warnings(tmp_path):
     pytest.importorskip("pdoc")
-    done = subprocess.run([sys.executable, str(ROOT / "scripts" / "build_api_docs.py"), str(tmp_path)],
+    done = subprocess.run([sys.executable, "-m", "evertgym.apidocs", str(tmp_path)],
                           capture_output=True, text=True, timeout=600, cwd=ROOT)
     assert done.returncode == 0, done.stderr[-3000:]
     for page in ("evertgym/env/eversion_env.html", "evertgym/agents/load.html", "evertgym/render/raster.html"):

@@ -1,6 +1,6 @@
 """Build the API reference (HTML) from the docstrings with pdoc; any warning fails the build.
 
-    python scripts/build_api_docs.py [OUT]        (default docs/api; needs the docs extra)
+    python -m evertgym.apidocs [OUT]        (default docs/api; needs the docs extra)
 
 Every module of the package is listed explicitly: pdoc alone follows ``__all__``, which
 would hide the submodules of packages that re-export a few names.
@@ -13,15 +13,14 @@ import sys
 import warnings
 from pathlib import Path
 
-import evertgym
-
 #: Modules left out: the CLI's entry point is documented by ``evertgym --help``.
-SKIP = {"evertgym.__main__"}
+SKIP = {"evertgym.__main__", "evertgym.apidocs"}
 
 
 def modules() -> list[str]:
     """Every importable module of the package, parents first."""
-    names = ["evertgym"] + [m.name for m in pkgutil.walk_packages(evertgym.__path__, "evertgym.")]
+    package = Path(__file__).resolve().parent  # this package's folder (the module sits in it)
+    names = ["evertgym"] + [m.name for m in pkgutil.walk_packages([str(package)], "evertgym.")]
     return [n for n in names if n not in SKIP and not n.startswith("evertgym.shipped") and not n.startswith("evertgym.presets")]
 
 
@@ -40,6 +39,9 @@ def _resolve_lazy_exports(names: list[str]) -> None:
 
 def build(out: Path) -> list[str]:
     """Write the HTML reference to ``out``; returns the documented module names."""
+    from evertgym._extras import require
+
+    require("the API reference", "pdoc")
     import pdoc
 
     names = modules()
@@ -52,6 +54,16 @@ def build(out: Path) -> list[str]:
     return names
 
 
-if __name__ == "__main__":
-    target = Path(sys.argv[1] if len(sys.argv) > 1 else "docs/api")
+def main(argv: list[str] | None = None) -> int:
+    """``python -m evertgym.apidocs [OUT]``."""
+    import argparse
+
+    ap = argparse.ArgumentParser(prog="python -m evertgym.apidocs", description=__doc__.splitlines()[0])
+    ap.add_argument("out", nargs="?", default="docs/api", help="the folder of the HTML reference")
+    target = Path(ap.parse_args(argv).out)
     print(f"{len(build(target))} modules -> {target}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
