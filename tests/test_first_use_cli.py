@@ -129,3 +129,12 @@ def test_the_accuracy_page_is_written_with_its_command(tmp_path):
     assert done.returncode == 0, done.stderr[-2000:]
     page = (tmp_path / "benchmarks.md").read_text()
     assert "python -m evertgym.bench.accuracy_page" in page and (tmp_path / "benchmarks_pareto.png").is_file()
+
+
+def test_the_calibration_command_refits_the_eversion_threshold_without_writing(capsys):
+    from evertgym.experiments.calibration import main as calibration
+    from evertgym.model.params import PARAMS_PATH
+
+    before = PARAMS_PATH.read_bytes()
+    assert calibration(["--part", "eversion", "--dry-run"]) == 0
+    assert '"eversion_threshold"' in capsys.readouterr().out and PARAMS_PATH.read_bytes() == before

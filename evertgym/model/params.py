@@ -1,6 +1,6 @@
 """The versioned, calibrated parameter file of the model layer.
 
-``evertgym/data/model_params.json`` is written by ``scripts/calibrate_model.py`` (never by
+``evertgym/data/model_params.json`` is written by ``python -m evertgym.experiments.calibration`` (never by
 hand) and records, beside every number, the data it was fitted on.  This module only
 reads it.  All values in the file are SI.
 """
