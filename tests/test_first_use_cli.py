@@ -138,3 +138,10 @@ def test_the_calibration_command_refits_the_eversion_threshold_without_writing(c
     before = PARAMS_PATH.read_bytes()
     assert calibration(["--part", "eversion", "--dry-run"]) == 0
     assert '"eversion_threshold"' in capsys.readouterr().out and PARAMS_PATH.read_bytes() == before
+
+
+def test_the_dormant_walls_measurement_runs_a_short_growth():
+    from evertgym.bench.dormant import run
+
+    row = run(True, 0.0, 3.0, sim_s=0.5)
+    assert row["dormant_walls"] is True and row["length_mm"] > 0 and row["wall_s"] > 0

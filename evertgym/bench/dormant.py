@@ -6,7 +6,7 @@ relative ``eps`` to show how much the stall position moves with round-off-sized 
 with and without dormant walls.  Prints the stall length (mm), whether it stalled, the peak
 tip contact force (N) and the wall time (s, one core, the two settings alternating).
 
-    python scripts/dormant_walls.py [--pressure-kpa 3] [--json]
+    python -m evertgym.bench.dormant [--pressure-kpa 3] [--json]
 """
 
 from __future__ import annotations
@@ -34,11 +34,11 @@ def run(dormant: bool, eps: float, pressure_kpa: float, sim_s: float = 12.0) -> 
             "max_contact_force_n": round(sim.max_contact_force, 3), "wall_s": round(wall, 3)}
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(prog="python -m evertgym.bench.dormant", description=__doc__.splitlines()[0])
     ap.add_argument("--pressure-kpa", type=float, default=3.0)
     ap.add_argument("--json", action="store_true")
-    args = ap.parse_args()
+    args = ap.parse_args(argv)
     if not 0.0 < args.pressure_kpa <= 8.0:
         ap.error(f"--pressure-kpa = {args.pressure_kpa} is out of range: allowed (0, 8]")
     rows = [run(d, eps, args.pressure_kpa) for eps in EPS for d in (False, True)]
