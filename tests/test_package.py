@@ -114,7 +114,8 @@ def test_wheel_carries_the_data_and_runs_from_a_fresh_venv(tmp_path):
         assert f in names, f
     assert {"evertgym_gymnasium_hook.py", "evertgym_gymnasium_hook.pth"} <= names
     py = _venv_seeing_this_environment(tmp_path / "venv")
-    subprocess.run([str(py), "-m", "pip", "install", "-q", "--no-deps", str(wheel)], check=True, timeout=600)
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}  # a checkout on the path is not "installed"
+    subprocess.run([str(py), "-m", "pip", "install", "-q", "--no-deps", str(wheel)], check=True, timeout=600, env=env)
     code = textwrap.dedent("""
         import warnings
         warnings.simplefilter("error")  # no Gymnasium warning on making an env
@@ -132,7 +133,6 @@ def test_wheel_carries_the_data_and_runs_from_a_fresh_venv(tmp_path):
         obs, info = env.reset(seed=0); policy.reset(env); env.step(policy.act(obs, info))
         print("wheel ok", evertgym.__version__)
     """)
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
     done = subprocess.run([str(py), "-c", code], capture_output=True, text=True, timeout=300, cwd=tmp_path, env=env)
     assert done.returncode == 0, done.stderr[-3000:]
     assert f"wheel ok {evertgym.__version__}" in done.stdout
