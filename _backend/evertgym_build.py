@@ -7,8 +7,10 @@ empty namespace package, and ``import evertgym`` returns that: the environments 
 registered and ``gym.make("evertgym/UBend-v0")`` fails with ``NamespaceNotFound``.  This
 backend adds ``__editable__.evertgym_root.pth`` to the editable wheel: it puts the project
 root on ``sys.path``, where the search finds the real package (a regular package anywhere on
-the path wins over a namespace portion found before it).  Wheels and sdists are
-setuptools' unchanged.
+the path wins over a namespace portion found before it).  Every wheel, editable or not, also
+carries ``evertgym_gymnasium_hook.py`` and the ``.pth`` that imports it at start-up: Gymnasium
+1.x loads no ``gymnasium.envs`` entry points, and the hook registers the environments when
+Gymnasium is imported.  Sdists are setuptools' unchanged (and carry the hook's source).
 """
 
 from __future__ import annotations
@@ -26,10 +28,29 @@ ROOT = Path(__file__).resolve().parents[1]
 PTH = "__editable__.evertgym_root.pth"
 
 
+#: Gymnasium 1.x reads no entry points: this module, imported by :data:`HOOK_PTH` at start-up, registers
+#: the environments when Gymnasium is imported, so ``gymnasium.make("evertgym/UBend-v0")`` needs no ``import evertgym``
+HOOK = "evertgym_gymnasium_hook.py"
+HOOK_PTH = "evertgym_gymnasium_hook.pth"
+
+
+def _add_hook(wheel: Path) -> None:
+    _add_to_wheel(wheel, HOOK, (Path(__file__).resolve().parent / HOOK).read_bytes())
+    _add_to_wheel(wheel, HOOK_PTH, b"import evertgym_gymnasium_hook\n")
+
+
 def build_editable(wheel_directory: str, config_settings: dict | None = None, metadata_directory: str | None = None) -> str:
-    """setuptools' editable wheel with :data:`PTH` (the project root) added and recorded."""
+    """setuptools' editable wheel with :data:`PTH` (the project root) and the Gymnasium hook added and recorded."""
     name = _setuptools.build_editable(wheel_directory, config_settings, metadata_directory)
     _add_to_wheel(Path(wheel_directory) / name, PTH, f"{ROOT}\n".encode())
+    _add_hook(Path(wheel_directory) / name)
+    return name
+
+
+def build_wheel(wheel_directory: str, config_settings: dict | None = None, metadata_directory: str | None = None) -> str:
+    """setuptools' wheel with the Gymnasium hook (:data:`HOOK`, :data:`HOOK_PTH`) added and recorded."""
+    name = _setuptools.build_wheel(wheel_directory, config_settings, metadata_directory)
+    _add_hook(Path(wheel_directory) / name)
     return name
 
 

@@ -52,7 +52,9 @@ _BACKEND_HELP = "where trials run: process pool, serial in this process, or a Da
 
 def _sub(subparsers: argparse._SubParsersAction, name: str, text: str) -> argparse.ArgumentParser:
     """A subcommand whose one-line help is also its description."""
-    return subparsers.add_parser(name, help=text, description=text.replace("%%", "%"))
+    p = subparsers.add_parser(name, help=text, description=text.replace("%%", "%"))
+    p.set_defaults(_parser=p)  # the innermost subcommand's parser reports its own unknown flags (main)
+    return p
 
 
 def _scene_families() -> str:
@@ -70,12 +72,12 @@ def _float_list(flag: str, text: str) -> list[float]:
         raise CLIError(f"{flag} = {text!r}: expected comma-separated numbers in mm, e.g. 50,100") from None
     for v in vals:
         if not math.isfinite(v) or v <= 0:
-            raise CLIError(f"{flag} = {text!r}: every distance must be in (0, inf) mm")
+            raise CLIError(f"{flag} = {text!r}: every value must be in (0, inf) mm")
     return vals
 
 
-def _check(flag: str, value: float, lo: float, hi: float, unit: str) -> float:
-    return check_range(flag, value, lo, hi, unit=unit, error=CLIError)
+def _check(flag: str, value: float, lo: float, hi: float, unit: str, hi_open: bool = False) -> float:
+    return check_range(flag, value, lo, hi, unit=unit, error=CLIError, hi_open=hi_open)
 
 
 # ---- reproduce stiffness ---------------------------------------------------------------
@@ -186,7 +188,7 @@ def cmd_stiffness(args: argparse.Namespace) -> int:
         design = TubeDesign(_check("--diameter-mm", args.diameter_mm, 1.0, 500.0, "mm") / 1e3, 0.05e-3, length_total / 1e3)
         bands = _float_list("--bands-from-tip-mm", args.bands_from_tip_mm)
         if bands:
-            red = _check("--reduction", args.reduction, 0.0, 0.5999, "(fraction of the diameter, below 0.6)")
+            red = _check("--reduction", args.reduction, 0.0, 0.6, "(fraction of the diameter)", hi_open=True)
             design = design.with_bands_from_tip([b / 1e3 for b in bands], red)
     free_mm = params.free_length_m * 1e3 if args.length_mm is None else args.length_mm
     free_source = "calibrated (the paper's rig)" if args.length_mm is None else "--length-mm"
@@ -243,7 +245,23 @@ def cmd_bench_accuracy(args: argparse.Namespace) -> int:
               f"{r['wall_s_per_sim_s']:>9.4f}{mark}")
     print("ubend: share of U-bend outcomes unlike the finest setting's; vs_qs: unlike the quasi-static engine's")
     print(f"default (fastest within 3%): {result['default'].get('label', result['default'])}")
-    print("docs/benchmarks.md is written by: python scripts/bench_accuracy.py")
+    print("docs/benchmarks.md is written by: python -m evertgym.bench.accuracy_page")
+    return 0
+
+
+def cmd_bench_render(args: argparse.Namespace) -> int:
+    from evertgym.bench.render import bench_render, format_render
+
+    rows = bench_render(args.frames)
+    print(dumps({"rows": rows}) if args.json else "\n".join(format_render(rows)))
+    return 0
+
+
+def cmd_bench_rod(args: argparse.Namespace) -> int:
+    from evertgym.bench.rod import bench_rod, format_rod
+
+    rows = bench_rod(args.repeats)
+    print(dumps({"rows": rows}) if args.json else "\n".join(format_rod(rows)))
     return 0
 
 
@@ -310,8 +328,10 @@ def cmd_bench_env(args: argparse.Namespace) -> int:
     return 0
 
 
-def _sim_overrides(text: str | None, extra: dict | None = None) -> dict:
-    """``--sim`` JSON: SimConfig fields, checked (names, ranges, the engine they belong to) before work starts."""
+def sim_overrides(text: str | None, extra: dict | None = None) -> dict:
+    """``--sim`` JSON: SimConfig fields, checked (names, ranges, the engine they belong to) before work starts;
+    ``extra`` fields are added.  Raises :class:`CLIError` (a one-line ``ValueError``).  Scripts parse their
+    own ``--sim`` with it."""
     try:
         sim = json.loads(text) if text else {}
     except (json.JSONDecodeError, TypeError, ValueError) as e:
@@ -335,6 +355,9 @@ def _sim_overrides(text: str | None, extra: dict | None = None) -> dict:
     except (TypeError, ValueError) as e:
         raise CLIError(f"--sim: {e}") from None
     return sim
+
+
+_sim_overrides = sim_overrides
 
 
 def _number_list(text: str | None, flag: str, lo: float, hi: float, unit: str) -> list[float] | None:
@@ -607,7 +630,7 @@ def cmd_score(args: argparse.Namespace) -> int:
         designs[Path(path).stem] = TubeDesign.load(check_input_file("--design", path)).to_dict()
     if args.bands_mm is not None or not designs:
         bands = _float_list("--bands-mm", args.bands_mm or "")
-        red = _check("--reduction", args.reduction, 0.0, 0.5999, "(fraction, below 0.6)")
+        red = _check("--reduction", args.reduction, 0.0, 0.6, "(fraction of the diameter)", hi_open=True)
         name = f"{len(bands)} x {round(red * 100)}%" if bands else "no bands"
         designs[name] = design_from_flags(args.diameter_mm, args.length_mm, bands, red)
     try:
@@ -658,7 +681,7 @@ def cmd_score(args: argparse.Namespace) -> int:
 
 
 def cmd_optimize(args: argparse.Namespace) -> int:
-    from evertgym.experiments.optimize import BARE_NAME, PAPER_NAME, optimize_bands
+    from evertgym.experiments.optimize import BARE_NAME, PAPER_NAME, optimize_bands, study_text
 
     try:
         params = json.loads(args.scene_params)
@@ -680,6 +703,8 @@ def cmd_optimize(args: argparse.Namespace) -> int:
     if args.json:
         print(dumps({**out, "physics": _physics(sim)}, default=float))
         return 0
+    print(study_text(out["study"]))
+    print(out["objective"])
     print(f"best after {out['trials']} designs: {_best_design_text(out['best_design'], out['best_params'])}")
     print("held-out scenes:")
     for r in out["held_out"]:
@@ -704,7 +729,7 @@ def _best_design_text(design: dict, params: dict) -> str:
 def cmd_train(args: argparse.Namespace) -> int:
     from evertgym.agents.train import run_status, train
 
-    status = run_status(args.config, args.out, args.seed)
+    status = run_status(args.config, args.out, args.seed, args.timesteps)
     if status["finished"]:
         print(f"evertgym: {status['run_dir']} is already trained to {status['n_timesteps']} steps: nothing to do "
               f"(remove the folder, or pass --out or --seed, to train again)", file=sys.stderr)
@@ -713,13 +738,17 @@ def cmd_train(args: argparse.Namespace) -> int:
               f"{status['n_timesteps']} steps (remove the folder to train from step 0)", file=sys.stderr)
     elif args.resume:
         raise CLIError(f"--resume: {status['run_dir']} has no complete checkpoint: allowed without --resume (a fresh run)")
-    summary = train(args.config, out_dir=args.out, resume=None, progress=args.progress and not args.json, seed=args.seed)
+    summary = train(args.config, out_dir=args.out, resume=None, progress=args.progress and not args.json, seed=args.seed,
+                    timesteps=args.timesteps)
     if args.json:
         print(dumps(summary, indent=2))
         return 0
     run_dir = Path(summary["run_dir"])
     if not summary["already_trained"]:
-        print(f"trained {summary['num_timesteps']} env steps in {summary['train_wall_s'] / 60:.1f} min; model: {run_dir / 'final.zip'} "
+        start = summary.get("resumed_from_steps") or 0
+        steps = (f"{summary['num_timesteps'] - start} env steps (from the checkpoint at {start} to {summary['num_timesteps']})"
+                 if start else f"{summary['num_timesteps']} env steps")
+        print(f"trained {steps} in {summary['train_wall_s'] / 60:.1f} min; model: {run_dir / 'final.zip'} "
               f"(TensorBoard: tensorboard --logdir {run_dir / 'tb'})")
     else:
         print(f"{summary['num_timesteps']} env steps; model: {run_dir / 'final.zip'}")
@@ -731,18 +760,68 @@ def cmd_train(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_tune(args: argparse.Namespace) -> int:
+    from evertgym.agents.tuned import shipped_dir, tune_operator, tuned_path
+    from evertgym.cli_guard import check_env_id
+    from evertgym.limits import MAX_EPISODES
+
+    check_env_id("--env", args.env)
+    if not 1 <= args.episodes <= MAX_EPISODES:
+        raise CLIError(f"--episodes = {args.episodes} is out of range: allowed [1, {MAX_EPISODES}]")
+    out = Path(args.out) if args.out else tuned_path(args.env, shipped_dir())
+    result = tune_operator(args.env, args.episodes, log=out.with_suffix(".jsonl"),
+                           on_result=None if args.json else (lambda rec: print(dumps(rec), flush=True)))
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(result, indent=2) + "\n", encoding="utf-8")
+    if args.json:
+        print(dumps({**result, "out": str(out)}))
+        return 0
+    print("best:", dumps(result["best"]))
+    print(f"-> {out} (the tuned baseline loads it on {args.env})")
+    return 0
+
+
+def cmd_baselines(args: argparse.Namespace) -> int:
+    from evertgym.agents.baseline_table import run
+
+    return run(args)
+
+
+def cmd_headroom(args: argparse.Namespace) -> int:
+    from evertgym.agents.headroom import run
+
+    return run(args)
+
+
+def cmd_compare_runs(args: argparse.Namespace) -> int:
+    from evertgym.agents.compare import main as compare
+
+    return compare(args.first, args.second)
+
+
+def cmd_paired(args: argparse.Namespace) -> int:
+    from evertgym.agents.stored import paired_difference, parse_env_kwargs
+
+    env_kwargs = parse_env_kwargs("--env-kwargs", args.env_kwargs, args.env)
+    print("\n".join(paired_difference(args.env, args.a, args.b, args.key, args.episodes, env_kwargs)))
+    return 0
+
+
 def cmd_eval(args: argparse.Namespace) -> int:
     from evertgym.agents.evaluate import OUTCOME_CHECKS, evaluate, outcome_check_kwargs
+    from evertgym.agents.policies import on_trained_engine
     from evertgym.cli_guard import check_eval_flags
     from evertgym.env.eversion_env import HELD_OUT_SEED_BASE, VALIDATION_SEED_BASE, engine_of
 
-    env_kwargs = check_eval_flags(args)
+    given = check_eval_flags(args)
     _stores(args)
+    env_kwargs = on_trained_engine(args.policies, given, args.allow_engine_mismatch)
     seed_base = VALIDATION_SEED_BASE if args.validation else HELD_OUT_SEED_BASE
     rows = evaluate(args.policies, args.env, args.episodes, env_kwargs=env_kwargs, workers=args.workers,
                     trust=args.trust_model, progress=not args.json, seed_base=seed_base, db=args.db,
-                    check_outcomes=args.check_outcomes)
+                    check_outcomes=args.check_outcomes, allow_engine_mismatch=args.allow_engine_mismatch)
     engine = engine_of(env_kwargs or {})
+    own = " (the trained policies' own)" if env_kwargs != given else ""
     if args.json:
         extra = {}
         if args.check_outcomes:
@@ -752,7 +831,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
                      **extra}))
         return 0
     print(f"{'validation' if args.validation else 'held-out'} episodes: episode and scene seeds {seed_base}-{seed_base + args.episodes - 1}, "
-          f"{engine} engine")
+          f"{engine} engine{own}")
     width = max([30] + [len(r["policy"]) for r in rows])  # a name is never cut
     print(f"{'policy':{width}s} {'episodes':>8s} {'passed':>6s} {'success':>8s} {'95% CI':>14s} {'time_to_goal_s':>14s} "
           f"{'peak_kpa':>9s} {'max_force_n':>11s} {'bend_peak_kpa':>13s} {'peak<bend':>9s}")
@@ -793,50 +872,58 @@ def cmd_policies(args: argparse.Namespace) -> int:
         p = Path(path)
         return str(p.relative_to(Path.cwd())) if p.is_relative_to(Path.cwd()) else str(p)
 
-    table = []
+    import textwrap
+
+    from evertgym.sim.growth import MAX_PRESSURE_PA
+
+    kpa_per_action = MAX_PRESSURE_PA / 1e3 / 2  # an action unit in kPa: a in [-1, 1] spans 0-8 kPa
+    print(f"{'policy':30s} {'env':16s} {'trained on':12s} held-out success (Wilson 95%), engine")
     for r in rows:
+        h = r["held_out"]
+        held = "-" if h is None else f"{h['successes']}/{h['episodes']} [{h['ci_low']:.2f}, {h['ci_high']:.2f}] on {h['engine']}"
+        env = (r["env_id"] or "-").removeprefix("evertgym/")
+        print(f"{r['name']:30s} {env:16s} {r['engine']:12s} {held}")
         obs = ", ".join(f"{k}={json.dumps(v)}" for k, v in r["observations"].items()) or "the env's defaults"
         if r["senses_tip"]:
             obs += " (senses the tip)"
-        h = r["held_out"]
-        if h is None:
-            held = "-"
-        else:
-            lag = f", {json.dumps(h['env_kwargs'])}" if h["env_kwargs"] else ""
-            held = f"{h['successes']}/{h['episodes']} [{h['ci_low']:.2f}, {h['ci_high']:.2f}] on {h['engine']}{lag}"
-        acts = "mean" if r["deterministic"] else "sampled"
+        acts = "its mean action" if r["deterministic"] else "a sampled action"
         if r["residual"] is not None:
-            acts += f", corrects {r['residual']['rule']} by <= {r['residual']['scale']:g}"
-        table.append((r["name"], r["env_id"] or "-", obs, acts, r["engine"], shown(r["config"]), held))
-    head = ("policy", "env", "observations", "actions", "trained on", "training config",
-            "held-out success (Wilson 95%, engine, eval env kwargs)")
-    widths = [max(len(row[i]) for row in [head, *table]) for i in range(len(head) - 1)]
-    for row in [head, *table]:
-        print("  ".join(f"{c:{w}s}" for c, w in zip(row, widths)) + "  " + row[-1])
-    print("use one by name: evertgym eval NAME --env ENV, evertgym rollout NAME --env ENV --out x.gif, "
-          "load_policy(NAME) in Python (docs/agents.md)")
+            acts += f", correcting {r['residual']['rule']} by at most {r['residual']['scale'] * kpa_per_action:g} kPa"
+        details = [f"observes {obs}; plays {acts}", f"trained from {shown(r['config'])}"]
+        if h is not None and h["env_kwargs"]:
+            details[-1] += "; held out with " + ", ".join(f"{k}={json.dumps(v)}" for k, v in h["env_kwargs"].items())
+        for line in details:
+            print(textwrap.fill(line, width=100, initial_indent="    ", subsequent_indent="      "))
+    print("use one by name: evertgym eval NAME --env ENV, evertgym rollout NAME --env ENV --out x.gif,\n"
+          "load_policy(NAME) in Python (docs/agents.md); each runs on the engine it was trained on")
     return 0
 
 
 def cmd_rollout(args: argparse.Namespace) -> int:
+    from evertgym.agents.policies import on_trained_engine
     from evertgym.agents.rollout import rollout_gif
     from evertgym.cli_guard import check_rollout_flags
+    from evertgym.env.eversion_env import engine_of
 
-    env_kwargs = check_rollout_flags(args)
+    env_kwargs = on_trained_engine([args.policy], check_rollout_flags(args), args.allow_engine_mismatch)
     info = rollout_gif(args.policy, args.env, args.out, seed=args.seed, trust=args.trust_model, progress=not args.json,
-                       env_kwargs=env_kwargs)
+                       env_kwargs=env_kwargs, allow_engine_mismatch=args.allow_engine_mismatch)
     if args.json:
         print(dumps(info))
         return 0
     cmd = np.asarray(info["command_kpa"])
     print(f"held-out episode {args.seed} (seed {info['episode_seed']}): "
           f"{'success' if info['success'] else 'no success'} after {info['time_s']:.1f} s ({len(cmd)} control steps); "
-          f"peak pressure {info['peak_pressure_kpa']:.2f} kPa")
+          f"peak pressure {info['peak_pressure_kpa']:.2f} kPa; {engine_of(env_kwargs)} engine")
     if len(cmd):
         print(f"pressure command: mean {cmd.mean():.2f} kPa, range {cmd.min():.2f}-{cmd.max():.2f} kPa "
               "(--json lists every step)")
     print(f"{info['frames']} frames -> {info['out']}")
     return 0
+
+
+_ENGINE_HELP = ("run a trained model on another simulator engine than the one it was trained on (without it, the episodes run "
+                "on the model's own engine, and --env-kwargs naming another engine is refused)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -925,7 +1012,8 @@ def build_parser() -> argparse.ArgumentParser:
     st.set_defaults(func=cmd_stiffness)
     sc = _sub(sub, "score", "score band designs on a scene distribution (resumable SQLite store)")
     sc.add_argument("--design", action="append", help="a design file (TOML/JSON); repeatable")
-    sc.add_argument("--bands-mm", default=None, help="band positions from the base, e.g. 200,250,300")
+    sc.add_argument("--bands-mm", default=None, help="band positions from the base in mm, e.g. 200,250,300; with --design, "
+                    "--bands-mm '' adds a bare robot (no bands) beside the design file's")
     sc.add_argument("--reduction", type=float, default=0.1, help="band diameter reduction of --bands-mm, [0, 0.6)")
     sc.add_argument("--diameter-mm", type=float, default=40.0, help="tube diameter of the flag design (mm)")
     sc.add_argument("--length-mm", type=float, default=900.0, help="robot length of the flag design (mm)")
@@ -969,7 +1057,11 @@ def build_parser() -> argparse.ArgumentParser:
     op.set_defaults(func=cmd_optimize)
 
     tr = _sub(sub, "train", "train a pressure policy from a config in agents/")
-    tr.add_argument("config", help="a training config, e.g. agents/ubend_ppo.toml")
+    tr.add_argument("config", help="a shipped config by name (ubend_ppo_operator, colon_residual_operator, ...: the policy it "
+                    "trained) or a config file, e.g. agents/ubend_ppo.toml")
+    tr.add_argument("--timesteps", type=int, default=None, metavar="N",
+                    help="train N env steps instead of the config's n_timesteps, into its own run folder <name>_<N>steps "
+                         "(a short try of a config)")
     tr.add_argument("--out", default="runs", help="runs folder")
     tr.add_argument("--resume", action="store_true",
                     help="insist on continuing from the newest checkpoint (fail without one); without it a run folder "
@@ -979,6 +1071,18 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
     tr.add_argument("--json", action="store_true", help="print the summary as JSON (for machines)")
     tr.set_defaults(func=cmd_train)
+
+    tu = _sub(sub, "tune", "tune the operator protocol on an env's training scenes: the tuned baseline's parameters")
+    tu.description = (tu.description or "") + (
+        ". Every point of a 36-point grid (start pressure, step, stall window, relaxation) runs on the same training "
+        "episodes (scene seeds below the held-out base); the best passes most, then has the lowest mean peak pressure. "
+        "Each point is appended to OUT.jsonl as it is produced, so a killed search resumes. Cost: 36 x --episodes episodes.")
+    tu.add_argument("--env", required=True, help="a registered env id, e.g. evertgym/Colon-v0")
+    tu.add_argument("--episodes", type=int, default=8, help="training episodes per grid point")
+    tu.add_argument("--out", default=None, metavar="FILE.json",
+                    help="result file (default: the env's file among the shipped agents, which `tuned` loads)")
+    tu.add_argument("--json", action="store_true", help=_JSON_HELP)
+    tu.set_defaults(func=cmd_tune)
 
     ev = _sub(sub, "eval", "evaluate policies side by side on the same held-out episodes")
     ev.add_argument("policies", nargs="+", help="a baseline (constant, operator, tuned, cycle, deflate), with parameters as "
@@ -1003,7 +1107,40 @@ def build_parser() -> argparse.ArgumentParser:
                     help="also replay every episode with the solver tolerance / 10 and the growth increment / 2 (quasi-static "
                          "engine; 3x the time) and report the episodes whose outcome moves with them (undecided)")
     ev.add_argument("--wait", type=float, default=60.0, help="seconds to wait for a store another process holds locked")
+    ev.add_argument("--allow-engine-mismatch", action="store_true", help=_ENGINE_HELP)
     ev.set_defaults(func=cmd_eval)
+
+    from evertgym.agents.baseline_table import add_arguments as baselines_arguments
+    from evertgym.agents.headroom import add_arguments as headroom_arguments
+
+    bl = _sub(sub, "baselines", "the hand-written rules (and any policies) side by side on the same held-out episodes of "
+                                "each env: the tables of docs/results/")
+    baselines_arguments(bl)
+    bl.set_defaults(func=cmd_baselines)
+
+    hr = _sub(sub, "headroom", "which stored policies pass the held-out episodes a reference policy fails, and what a "
+                               "per-episode oracle over them would pass")
+    headroom_arguments(hr)
+    hr.set_defaults(func=cmd_headroom)
+
+    cr = _sub(sub, "compare-runs", "are two trained policies the same? Their weights (read as tensors only) and their "
+                                   "VecNormalize files (by bytes); exit 0 when both are identical, 1 when not")
+    cr.add_argument("first", help="a run folder (final.zip and final_vecnormalize.pkl), a shipped policy's folder or a checkpoint zip")
+    cr.add_argument("second", help="the same for the other policy")
+    cr.set_defaults(func=cmd_compare_runs)
+
+    pa = _sub(sub, "paired", "two policies on the same held-out episodes from evaluation stores (eval --db): the paired "
+                             "difference of a per-episode figure (95%% interval, Wilcoxon) and of their successes (McNemar)")
+    pa.add_argument("--env", required=True, help="the env id the episodes were played on")
+    pa.add_argument("--a", required=True, metavar="STORE:POLICY", help="the first policy's store and name")
+    pa.add_argument("--b", required=True, metavar="STORE:POLICY", help="the second policy's store and name")
+    pa.add_argument("--key", default="max_contact_force_n", help="the per-episode figure")
+    pa.add_argument("--episodes", type=int, default=200, help="held-out episodes to pair (seeds 1e9 + i)")
+    pa.add_argument("--env-kwargs", default=None, metavar="JSON",
+                    help='the env kwargs the episodes were played with (default {"regulator_tau_s": [0.1, 0.6]}, or {} for '
+                         'an id whose preset draws the lag itself); an outcome check\'s replay adds e.g. '
+                         '"sim_config": {"solver_tolerance": 0.0001}')
+    pa.set_defaults(func=cmd_paired)
 
     po = _sub(sub, "policies", "the shipped trained policies: env, observations, training config, held-out success")
     po.add_argument("--json", action="store_true", help=_JSON_HELP)
@@ -1021,6 +1158,7 @@ def build_parser() -> argparse.ArgumentParser:
     ro.add_argument("--json", action="store_true", help="print the outcome and every step's command as JSON")
     ro.add_argument("--trust-model", action="store_true", help="load a model file that is not a shipped policy: model files are code "
                          "(pickles) and run when loaded")
+    ro.add_argument("--allow-engine-mismatch", action="store_true", help=_ENGINE_HELP)
     ro.set_defaults(func=cmd_rollout)
 
     bench = _sub(sub, "bench", "benchmarks")
@@ -1033,6 +1171,14 @@ def build_parser() -> argparse.ArgumentParser:
                                   "(pip install -e '.[bench]')")
     bp.add_argument("--json", action="store_true", help=_JSON_HELP)
     bp.set_defaults(func=cmd_bench_peers)
+    bn = _sub(bench_sub, "render", "cost of a rendered frame against an env step (Colon-v0, compliant walls)")
+    bn.add_argument("--frames", type=int, default=30, help="calls timed per row (their median is printed)")
+    bn.add_argument("--json", action="store_true", help=_JSON_HELP)
+    bn.set_defaults(func=cmd_bench_render)
+    br = _sub(bench_sub, "rod", "wall time of the Cosserat rod's shooting solve per tensile-test design and tip displacement")
+    br.add_argument("--repeats", type=int, default=5, help="solves per case (the median and the least are printed)")
+    br.add_argument("--json", action="store_true", help=_JSON_HELP)
+    br.set_defaults(func=cmd_bench_rod)
     bo = _sub(bench_sub, "pool", "scoring backends' throughput: serial, process pool (1, 2 workers), Dask; "
                                  "speed-up against 1 worker")
     bo.add_argument("--trials", type=int, default=16, help="trials per backend")
@@ -1058,7 +1204,14 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     no_abbreviations(parser)
-    args = parser.parse_args(argv)
+    args, extras = parser.parse_known_args(argv)
+    if extras:  # a misspelt flag: the subcommand's usage and the nearest flag, not the top-level usage
+        import difflib
+
+        sub = getattr(args, "_parser", parser)
+        flags = [o for a in sub._actions for o in a.option_strings]
+        near = [m for e in extras if e.startswith("-") for m in difflib.get_close_matches(e.split("=")[0], flags, n=1)]
+        sub.error(f"unrecognized arguments: {' '.join(extras)}" + (f" (did you mean {', '.join(near)}?)" if near else ""))
     return run_command(args.func, args)
 
 

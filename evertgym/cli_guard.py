@@ -48,8 +48,9 @@ def run_command(func: Callable[[argparse.Namespace], int], args: argparse.Namesp
         with _interruptible():
             return func(args)
     except KeyboardInterrupt:
-        print("evertgym: interrupted; finished trials and checkpoints are kept: rerun the same command to resume",
-              file=sys.stderr)
+        kept = {"cmd_train": "the run's checkpoints are kept"}.get(getattr(func, "__name__", ""),
+                                                                   "finished trials are kept in the command's store (--db)")
+        print(f"evertgym: interrupted; {kept}: rerun the same command to resume", file=sys.stderr)
         return EXIT_INTERRUPTED
     except BrokenPipeError:  # e.g. `evertgym ... --json | head -c 100`
         devnull = os.open(os.devnull, os.O_WRONLY)
@@ -170,6 +171,10 @@ def check_env_id(flag: str, env_id: str) -> str:
     """A registered Gymnasium id."""
     import gymnasium as gym
 
+    from evertgym.env import RENAMED_IDS
+
+    if env_id in RENAMED_IDS:
+        raise ValueError(f"{flag} = {env_id!r}: renamed {RENAMED_IDS[env_id]} (the same env)")
     try:
         gym.spec(env_id)
     except gym.error.Error as e:

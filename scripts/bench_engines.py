@@ -228,10 +228,10 @@ def main(argv: list[str] | None = None) -> dict:
         ap.error("--steps must be in [1, 100000] and --repeats in [1, 20]")
     ids = args.env or ["evertgym/UBend-v0", "evertgym/Colon-v0"]
     if args.setting:
-        from evertgym.cli import CLIError, _sim_overrides
+        from evertgym.cli import CLIError, sim_overrides
 
         try:
-            settings = [_sim_overrides(text, {"engine": "quasistatic"}) for text in args.setting]
+            settings = [sim_overrides(text, {"engine": "quasistatic"}) for text in args.setting]
         except CLIError as e:
             ap.error(str(e).replace("--sim", "--setting"))
         out = {"steps": args.steps, "repeats": args.repeats, "rows": compare_settings(ids, settings, args.steps, args.repeats)}

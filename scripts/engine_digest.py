@@ -4,7 +4,7 @@ Each (env, engine) run plays ``steps`` steps of uniform random actions (seed 0, 
 episode) and hashes, per step, the observation, the reward, the info (every key, as JSON with floats
 written exactly) and the centreline of the simulator, and per episode the simulator's events.  The same
 digests before and after a change mean the same answers: a shipped policy then still retrains exactly
-from its config (``scripts/compare_runs.py``).
+from its config (``evertgym compare-runs``).
 
     python scripts/engine_digest.py                      # prints one line per (env, engine)
     python scripts/engine_digest.py --json > before.json # ... change ...
@@ -26,7 +26,7 @@ RUNS = (
     ("evertgym/UBend-v0", "quasistatic", 300),
     ("evertgym/Colon-v0", "quasistatic", 120),
     ("evertgym/Tortuous-v0", "quasistatic", 200),
-    ("evertgym/Tortuous-v1", "quasistatic", 100),
+    ("evertgym/TortuousHard-v0", "quasistatic", 100),
     ("evertgym/UBend-v0", "dynamic", 150),
     ("evertgym/Colon-v0", "dynamic", 60),
 )

@@ -79,10 +79,10 @@ def main(argv: list[str] | None = None) -> dict:
     args = ap.parse_args(argv)
     if not 1 <= args.steps <= 100000:
         ap.error(f"--steps = {args.steps} is out of range: allowed [1, 100000]")
-    from evertgym.cli import CLIError, _sim_overrides
+    from evertgym.cli import CLIError, sim_overrides
 
     try:
-        sim = _sim_overrides(args.sim, {"engine": "quasistatic"})
+        sim = sim_overrides(args.sim, {"engine": "quasistatic"})
     except CLIError as e:
         ap.error(str(e))
     sim.pop("engine")

@@ -223,7 +223,7 @@ def test_tuned_parameters_are_per_env_and_the_ubend_file_keeps_its_name(tmp_path
     with pytest.raises(ValueError, match="tuned on env 'evertgym/UBend-v0', not env_id = 'evertgym/Colon-v0'"):
         tuned.load_tuned(path=tuned.TUNED_PATH, env_id="evertgym/Colon-v0")
     monkeypatch.setattr(tuned, "shipped_dir", lambda: tmp_path)  # no tuned files at all
-    with pytest.raises(ValueError, match=r"no tuned operator parameters.*scripts/tune_operator.py --env evertgym/Colon-v0"):
+    with pytest.raises(ValueError, match=r"no tuned operator parameters.*evertgym tune --env evertgym/Colon-v0"):
         evaluate(["operator", "tuned"], "evertgym/Colon-v0", 1)  # refused before any episode
 
 
@@ -496,9 +496,8 @@ def test_rollout_plays_the_held_out_episode_eval_plays(tmp_path):
     assert out["peak_pressure_kpa"] == round(info["peak_pressure_kpa"], 3)
 
 
-def test_baseline_table_script_prints_every_policy_on_the_same_held_out_episodes(tmp_path):
-    root = Path(__file__).resolve().parents[1]
-    cmd = [sys.executable, str(root / "scripts" / "baseline_table.py"), "--envs", "evertgym/UBend-v0", "--episodes", "2",
+def test_baselines_prints_every_policy_on_the_same_held_out_episodes(tmp_path):
+    cmd = [sys.executable, "-m", "evertgym.cli", "baselines", "--envs", "evertgym/UBend-v0", "--episodes", "2",
            "--db", str(tmp_path / "b.sqlite"), "--policies", "constant:pressure_kpa=3;tuned;deflate"]
     out = subprocess.run(cmd + ["--json"], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr
@@ -512,7 +511,7 @@ def test_baseline_table_script_prints_every_policy_on_the_same_held_out_episodes
     assert bad.returncode != 0 and "duty = 3.0 is out of range" in bad.stderr and "Traceback" not in bad.stderr
 
 
-def test_baseline_table_script_loads_a_run_model_only_when_trusted(tmp_path):
+def test_baselines_loads_a_run_model_only_when_trusted(tmp_path):
     """A run's own model (not a shipped policy) sits in the baseline table with ``--trust-model``;
     without it the script refuses in one line that names the flag (model files are code)."""
     import shutil
@@ -523,7 +522,7 @@ def test_baseline_table_script_loads_a_run_model_only_when_trusted(tmp_path):
     shutil.copytree(root / "agents" / "ubend_ppo_operator", run)
     with zipfile.ZipFile(run / "final.zip", "a") as z:  # other bytes than the shipped file: not in the manifest
         z.comment = b"a run of ours"
-    cmd = [sys.executable, str(root / "scripts" / "baseline_table.py"), "--envs", "evertgym/UBend-v0", "--episodes", "1",
+    cmd = [sys.executable, "-m", "evertgym.cli", "baselines", "--envs", "evertgym/UBend-v0", "--episodes", "1",
            "--db", str(tmp_path / "b.sqlite"), "--policies", f"constant:pressure_kpa=3;{run / 'final.zip'}", "--json"]
     refused = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     assert refused.returncode == 2 and "--trust-model" in refused.stderr and "Traceback" not in refused.stderr
@@ -553,9 +552,8 @@ def test_eval_under_a_randomised_regulator_lag_draws_it_per_episode():
     assert row["bend_reached_episodes"] == 1 and row["mean_peak_pressure_bend_kpa"] == pytest.approx(3.0, abs=0.02)
 
 
-def test_baseline_table_script_rejects_bad_env_kwargs_in_one_line():
-    root = Path(__file__).resolve().parents[1]
-    cmd = [sys.executable, str(root / "scripts" / "baseline_table.py"), "--envs", "evertgym/UBend-v0", "--episodes", "1",
+def test_baselines_rejects_bad_env_kwargs_in_one_line():
+    cmd = [sys.executable, "-m", "evertgym.cli", "baselines", "--envs", "evertgym/UBend-v0", "--episodes", "1",
            "--env-kwargs", '{"regulator_tau_s": [0.1, 99]}']
     bad = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     assert bad.returncode == 2 and "regulator_tau_s = 99 is out of range" in bad.stderr and "Traceback" not in bad.stderr
@@ -592,3 +590,10 @@ def test_every_config_loads_and_builds_its_env(path):
     obs, _ = env.reset(seed=0)
     assert env.observation_space.contains(obs)
     env.close()
+
+
+def test_the_baselines_table_counts_seeds_from_the_held_out_base():
+    from evertgym.agents.baseline_table import HELD_OUT_SEED_BASE as table_base
+    from evertgym.env.eversion_env import HELD_OUT_SEED_BASE
+
+    assert table_base == HELD_OUT_SEED_BASE

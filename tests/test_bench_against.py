@@ -9,6 +9,7 @@ import pytest
 from evertgym.bench.against import BuildError, bench_against, format_against
 
 
+@pytest.mark.slow  # 70-140 s: the revision's tree compiles its own quasi-static kernel
 def test_against_head_lays_out_the_revision_and_reports_both_builds():
     result = bench_against("HEAD", ["evertgym/UBend-v0"], steps=3, repeats=2)
     (row,) = result["rows"]

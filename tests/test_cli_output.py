@@ -26,12 +26,12 @@ def test_rollout_prints_a_summary_and_json_keeps_every_command(tmp_path, capsys,
     import evertgym.agents.rollout as rollout
 
     info = {"frames": 3, "success": True, "time_s": 0.3, "peak_pressure_kpa": 4.0, "command_kpa": [2.0, 3.0, 4.0],
-            "out": str(tmp_path / "r.gif"), "episode_seed": 1_000_000_000}
+            "out": str(tmp_path / "r.gif"), "episode_seed": 1_000_000_000, "engine": "quasistatic"}
     monkeypatch.setattr(rollout, "rollout_gif", lambda *a, **k: dict(info))  # the episode itself: tests/test_agents.py
     argv = ["rollout", "operator", "--env", "evertgym/UBend-v0", "--out", str(tmp_path / "r.gif")]
     assert main(argv) == 0
     out = capsys.readouterr().out
-    assert "success after 0.3 s (3 control steps); peak pressure 4.00 kPa" in out
+    assert "success after 0.3 s (3 control steps); peak pressure 4.00 kPa; quasistatic engine" in out
     assert "pressure command: mean 3.00 kPa, range 2.00-4.00 kPa" in out and "[" not in out
     assert main([*argv, "--json"]) == 0
     assert json.loads(capsys.readouterr().out) == info

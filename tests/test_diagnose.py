@@ -57,17 +57,16 @@ def test_json_output_is_the_trace():
 
 
 def test_the_jam_anatomy_script_runs_and_names_its_engine(tmp_path):
-    """``scripts/ubend_jam_anatomy.py`` (its page is docs/ubend_jams.md) on one bare trial: the page
+    """``python -m evertgym.experiments.ubend_jams`` (its page is docs/ubend_jams.md) on one bare trial: the page
     names the engine; a knob of the other engine is refused in one line."""
     import subprocess
     import sys
-    from pathlib import Path
 
-    script = str(Path(__file__).resolve().parents[1] / "scripts" / "ubend_jam_anatomy.py")
+    script = "-m evertgym.experiments.ubend_jams"
     page = tmp_path / "jams.md"
-    out = subprocess.run([sys.executable, script, "--radii", "40", "--reductions", "0", "--trials", "1", "--workers", "1",
+    out = subprocess.run([sys.executable, *script.split(), "--radii", "40", "--reductions", "0", "--trials", "1", "--workers", "1",
                           "--sim", '{"engine": "dynamic"}', "--write", str(page)], capture_output=True, text=True)
     assert out.returncode == 0, out.stderr
     assert "engine 'dynamic'" in page.read_text() and "| no bands | 40 |" in out.stdout
-    bad = subprocess.run([sys.executable, script, "--sim", '{"mass_ratio": 0.1}'], capture_output=True, text=True)
+    bad = subprocess.run([sys.executable, *script.split(), "--sim", '{"mass_ratio": 0.1}'], capture_output=True, text=True)
     assert bad.returncode == 2 and "mass_ratio = 0.1 means nothing to engine 'quasistatic'" in bad.stderr.strip().splitlines()[-1]

@@ -59,7 +59,7 @@ def test_waking_everything_restores_every_constraint():
 
 
 def test_the_colon_stall_lies_in_the_band_awake_walls_give():
-    """Measured (scripts/dormant_walls.py): at 3 kPa the stall length moves between 408 and 433 mm
+    """Measured (python -m evertgym.bench.dormant): at 3 kPa the stall length moves between 408 and 433 mm
     under round-off-sized perturbations of the command, with or without dormant walls."""
     out = {}
     for dormant in (False, True):

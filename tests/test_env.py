@@ -9,7 +9,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
 from evertgym.env import EversionEnv, register_envs
 
-IDS = ["evertgym/UBend-v0", "evertgym/Tortuous-v0", "evertgym/Colon-v0", "evertgym/Tortuous-v1"]
+IDS = ["evertgym/UBend-v0", "evertgym/Tortuous-v0", "evertgym/Colon-v0", "evertgym/TortuousHard-v0"]
 
 
 def test_presets_are_registered_on_import():
@@ -79,7 +79,8 @@ def test_action_maps_to_pressure_and_is_clipped_at_8kpa():
     env.reset(seed=0)
     env.step(np.array([0.0], dtype=np.float32))
     assert env.sim.regulator.command == pytest.approx(4000.0)
-    env.step(np.array([5.0], dtype=np.float32))  # out of the box: clipped
+    with pytest.warns(UserWarning, match="outside the action space"):
+        env.step(np.array([5.0], dtype=np.float32))  # out of the box: clipped, with a warning
     assert env.sim.regulator.command == pytest.approx(8000.0)
     for _ in range(20):
         env.step(np.array([1.0], dtype=np.float32))

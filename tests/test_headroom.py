@@ -1,21 +1,17 @@
-"""scripts/headroom.py: which stored policies pass the held-out episodes a reference fails, the per-episode oracle
+"""evertgym headroom: which stored policies pass the held-out episodes a reference fails, the per-episode oracle
 over them, and one line for bad input."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
 from pathlib import Path
 
 from evertgym.scoring.spec import TrialSpec
 from evertgym.scoring.store import ResultStore
 
-SCRIPT = Path(__file__).parents[1] / "scripts" / "headroom.py"
 SEED = 1_000_000_000
-ENV = "evertgym/Tortuous-v1"
-spec = importlib.util.spec_from_file_location("headroom", SCRIPT)
-headroom = importlib.util.module_from_spec(spec)
-spec.loader.exec_module(headroom)
+ENV = "evertgym/TortuousHard-v0"
+import evertgym.agents.headroom as headroom  # noqa: E402 - `evertgym headroom`
 
 
 def _store(path: Path, outcomes: dict[str, str], params: dict | None = None) -> None:

@@ -112,11 +112,15 @@ def test_settings_and_table(tmp_path):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="issue 13, blocked: the rigid-column model's U-bend cells move with mass_ratio, "
+@pytest.mark.skipif(not os.environ.get("EVERTGYM_INVARIANCE_FULL"),
+                    reason="a 30-minute study of the dynamic engine, known not to hold: EVERTGYM_INVARIANCE_FULL=1 runs it")
+@pytest.mark.xfail(strict=True, reason="the dynamic engine's rigid-column model: its U-bend cells move with mass_ratio, "
                    "inertia_factor and the step (docs/invariance.md); so do the section law's (docs/sim.md)")
 def test_invariance_full_size(tmp_path):
-    """Issue 13's criteria at full size (30+ min on 2 cores).  EVERTGYM_INVARIANCE_DIR keeps the
-    stores between runs (start it empty after a change to the physics)."""
+    """The dynamic engine's invariance criteria at full size (30+ min on 2 cores; not in `.ci/run`'s
+    budget, and known to fail: the default quasi-static engine's own criteria are
+    :func:`test_quasistatic_invariance`).  EVERTGYM_INVARIANCE_DIR keeps the stores between runs
+    (start it empty after a change to the physics)."""
     from evertgym.experiments.invariance import CRITERIA, format_table, run_invariance
 
     out = os.environ.get("EVERTGYM_INVARIANCE_DIR") or tmp_path
@@ -151,7 +155,7 @@ def test_quasistatic_settings_vary_only_its_own_numerical_knobs():
 @pytest.mark.slow
 @pytest.mark.timeout(5400)
 def test_quasistatic_invariance(tmp_path):
-    """Issue 25's criteria (a subset of the U-bend table: the five paper radii from 40 to 20 mm, 4
+    """The quasi-static engine's invariance criteria (a subset of the U-bend table: the five paper radii from 40 to 20 mm, 4
     trials per cell; both colon robots; the operator on 50 held-out Colon-v0 episodes): the growth
     increment halved, the tolerance ten times tighter and the pressure increment five times finer
     move no U-bend cell by more than 1 trial, no colon outcome or stall (by 2 mm), and the operator's

@@ -73,7 +73,7 @@ def test_a_shipped_policy_was_trained_with_its_config_and_the_operator_ones_neve
     assert meta.get("deterministic", True) == cfg.get("deterministic", True)
     assert meta.get("residual") == cfg.get("residual_spec")  # a residual policy corrects the rule its config names
     policy, env_id, env_kwargs = load_policy(name)
-    if name.endswith("_operator"):  # the lag comes from the config, or from the id's preset (Tortuous-v1)
+    if name.endswith("_operator"):  # the lag comes from the config, or from the id's preset (TortuousHard-v0)
         env = gym.make(env_id, **env_kwargs)
         assert env_kwargs["tip_sensing"] is False and env.unwrapped.regulator_tau_range == (0.1, 0.6)
         assert env.observation_space.shape == (3 * (env.unwrapped.history + 1),)  # 3 per sample: no tip force
@@ -81,12 +81,7 @@ def test_a_shipped_policy_was_trained_with_its_config_and_the_operator_ones_neve
 
 
 def test_compare_runs_tells_identical_policies_from_different_ones(capsys, tmp_path):
-    import importlib.util
-    from pathlib import Path
-
-    spec = importlib.util.spec_from_file_location("compare_runs", Path(__file__).parents[1] / "scripts" / "compare_runs.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    import evertgym.agents.compare as mod  # evertgym compare-runs
     ubend, tortuous = shipped_dir() / "ubend_ppo_operator", shipped_dir() / "tortuous_ppo_operator"
     assert mod.main(str(ubend), str(ubend)) == 0
     assert "largest difference 0 (identical)" in capsys.readouterr().out
@@ -107,7 +102,7 @@ def test_compare_runs_tells_identical_policies_from_different_ones(capsys, tmp_p
 @pytest.mark.parametrize(("name", "env_id", "rule", "scale"), [
     ("colon_residual_operator", "evertgym/Colon-v0", "cycle:low_kpa=0,high_kpa=3,period_s=1", 0.25),
     ("tortuous_residual_operator", "evertgym/Tortuous-v0", "cycle", 0.25),
-    ("tortuous_v1_residual_operator", "evertgym/Tortuous-v1", "cycle:low_kpa=2,high_kpa=8,period_s=2", 0.5),
+    ("tortuous_v1_residual_operator", "evertgym/TortuousHard-v0", "cycle:low_kpa=2,high_kpa=8,period_s=2", 0.5),
     ("ubend_residual_operator", "evertgym/UBend-v0", "operator:start_kpa=0.8,step_kpa=0.1,stall_s=0.5,relax_kpa_per_s=0.25",
      0.05),
 ])

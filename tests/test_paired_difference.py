@@ -1,9 +1,10 @@
-"""scripts/paired_difference.py: pairs two policies' stored episodes by seed, picks the episodes played with the
+"""evertgym paired: pairs two policies' stored episodes by seed, picks the episodes played with the
 env kwargs asked for (an outcome check's replays among them), and refuses bad --env-kwargs in one line."""
 
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -11,7 +12,9 @@ from pathlib import Path
 from evertgym.scoring.spec import TrialSpec
 from evertgym.scoring.store import ResultStore
 
-SCRIPT = Path(__file__).parents[1] / "scripts" / "paired_difference.py"
+#: the scripts run on this checkout's package, whatever is installed
+_ENV = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+CLI = [sys.executable, "-m", "evertgym.cli", "paired"]
 KW = {"regulator_tau_s": [0.1, 0.6]}
 REPLAY = {**KW, "sim_config": {"solver_tolerance": 0.0001}}
 SEED = 1_000_000_000
@@ -30,8 +33,8 @@ def _store(path: Path) -> None:
 
 
 def _run(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, str(SCRIPT), "--env", "evertgym/UBend-v0", *args], capture_output=True,
-                          text=True, timeout=120)
+    return subprocess.run([*CLI, "--env", "evertgym/UBend-v0", *args], capture_output=True,
+                          text=True, timeout=120, env=_ENV)
 
 
 def test_pairs_the_default_episodes_and_an_outcome_checks_replays(tmp_path):
@@ -49,36 +52,36 @@ def test_pairs_the_default_episodes_and_an_outcome_checks_replays(tmp_path):
 def test_bad_env_kwargs_get_one_line(tmp_path):
     for bad, says in [("{bad", "is not JSON"), ("[1]", "a JSON object of env kwargs")]:
         done = _run("--a", f"{tmp_path}/s.sqlite:A", "--b", f"{tmp_path}/s.sqlite:B", "--env-kwargs", bad)
-        assert done.returncode == 1 and "Traceback" not in done.stderr
+        assert done.returncode == 2 and "Traceback" not in done.stderr
         assert done.stderr.strip().count("\n") == 0 and "--env-kwargs" in done.stderr and says in done.stderr
     assert not (tmp_path / "s.sqlite").exists()  # refused before any store is opened
 
 
 def test_an_id_that_draws_the_lag_itself_pairs_its_plain_episodes(tmp_path):
-    """Tortuous-v1's preset draws the regulator lag, so its episodes are stored with no env kwargs: that is the
+    """TortuousHard-v0's preset draws the regulator lag, so its episodes are stored with no env kwargs: that is the
     default there, while a bare default on such a store would find none."""
     db = tmp_path / "v1.sqlite"
     with ResultStore(db) as store:
         for group, force in [("A", 2.0), ("B", 1.5)]:
             for i in range(4):
-                spec = TrialSpec(design={}, design_name="evertgym/Tortuous-v1",
-                                 scene={"family": "evertgym/Tortuous-v1", "params": {}, "seed": SEED + i},
+                spec = TrialSpec(design={}, design_name="evertgym/TortuousHard-v0",
+                                 scene={"family": "evertgym/TortuousHard-v0", "params": {}, "seed": SEED + i},
                                  policy={"name": group}, seed=SEED + i, index=i, group=group)
                 store.add(spec, {"success": True, "time_s": 1.0, "peak_pressure_kpa": 1.0,
                                  "max_contact_force_n": force - 0.01 * i, "stall_position_mm": None})
-    args = [sys.executable, str(SCRIPT), "--env", "evertgym/Tortuous-v1", "--a", f"{db}:A", "--b", f"{db}:B",
+    args = [*CLI, "--env", "evertgym/TortuousHard-v0", "--a", f"{db}:A", "--b", f"{db}:B",
             "--episodes", "4"]
-    done = subprocess.run(args, capture_output=True, text=True, timeout=120)
+    done = subprocess.run(args, capture_output=True, text=True, timeout=120, env=_ENV)
     assert done.returncode == 0, done.stderr
     assert "4 episodes in both" in done.stdout and "second - first: -0.5000" in done.stdout
-    done = subprocess.run(args + ["--env-kwargs", json.dumps(KW)], capture_output=True, text=True, timeout=120)
-    assert done.returncode == 1 and "only 0 episodes in both stores" in done.stderr
+    done = subprocess.run(args + ["--env-kwargs", json.dumps(KW)], capture_output=True, text=True, timeout=120, env=_ENV)
+    assert done.returncode == 2 and "only 0 episodes in both stores" in done.stderr
 
 
 def test_unknown_env_gets_one_line(tmp_path):
-    done = subprocess.run([sys.executable, str(SCRIPT), "--env", "evertgym/Nope-v0", "--a", f"{tmp_path}/s.sqlite:A",
-                           "--b", f"{tmp_path}/s.sqlite:B"], capture_output=True, text=True, timeout=120)
-    assert done.returncode == 1 and "Traceback" not in done.stderr
+    done = subprocess.run([*CLI, "--env", "evertgym/Nope-v0", "--a", f"{tmp_path}/s.sqlite:A",
+                           "--b", f"{tmp_path}/s.sqlite:B"], capture_output=True, text=True, timeout=120, env=_ENV)
+    assert done.returncode == 2 and "Traceback" not in done.stderr
     assert done.stderr.strip().count("\n") == 0 and "--env = 'evertgym/Nope-v0' is not allowed" in done.stderr
     assert not (tmp_path / "s.sqlite").exists()
 

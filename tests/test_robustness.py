@@ -419,7 +419,7 @@ def test_a_thousand_bands_build():
 @pytest.mark.slow
 @pytest.mark.timeout(3700)
 def test_rss_stays_flat_over_ten_simulated_minutes_of_20_hz_cycling():
-    done = subprocess.run([sys.executable, str(ROOT / "scripts" / "robustness_numbers.py"), "--minutes", "10", "--json"],
+    done = subprocess.run([sys.executable, "-m", "evertgym.bench.robustness", "--minutes", "10", "--json"],
                           capture_output=True, text=True, timeout=3600)
     assert done.returncode == 0, done.stderr
     log = json.loads(done.stdout)["event_log"]

@@ -2,9 +2,6 @@
 
 import json
 import math
-import runpy
-import sys
-from pathlib import Path
 
 import numpy as np
 import pymunk
@@ -310,10 +307,11 @@ def test_render_rgb_draws_scene_and_robot():
     assert not np.array_equal(thin, img)
 
 
-def test_gallery_script_writes_the_png(tmp_path, monkeypatch):
+def test_the_gallery_writes_the_png(tmp_path):
+    from evertgym.scenes.gallery import main as gallery
+
     out = tmp_path / "gallery.png"
-    monkeypatch.setattr(sys, "argv", ["scene_gallery.py", "--out", str(out)])
-    runpy.run_path(str(Path(__file__).resolve().parent.parent / "scripts" / "scene_gallery.py"), run_name="__main__")
+    gallery(["--out", str(out)])
     img = imread(out)
     assert img.shape[0] > 500 and img.shape[1] > 1000
 

@@ -31,7 +31,7 @@ def test_unloaded_section_has_the_classical_moments():
 
 
 def test_axial_load_lowers_the_moments_and_a_slack_wall_carries_none():
-    """The note's table at 3 kPa with C = 3 N (shared/notes/bend-physics.md, section 2), no tail."""
+    """The note's table at 3 kPa with C = 3 N (closed-tube statics), no tail."""
     p, c = 3000.0, 3.0
     r = 0.02 * (1 - np.array([0.0, 0.1, 0.2, 0.3]))
     t = wall_tension(p, r, 0.0, c)

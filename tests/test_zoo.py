@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -19,7 +20,7 @@ def test_zoo_files_are_up_to_date_with_the_toml_configs():
     files = zoo_files(sorted(AGENTS.glob("*.toml")))
     assert set(files) == {"ppo", "sac"}
     for algo, text in files.items():
-        assert (AGENTS / f"{algo}.yml").read_text() == text, f"run: python scripts/write_zoo_yaml.py ({algo}.yml is stale)"
+        assert (AGENTS / f"{algo}.yml").read_text() == text, f"run: python -m evertgym.agents.zoo ({algo}.yml is stale)"
 
 
 def test_zoo_entry_carries_every_hyperparameter_and_env_kwarg():
@@ -56,9 +57,13 @@ def test_rl_zoo3_trains_with_our_hyperparameters(tmp_path):
     # one PPO update: n_steps 512 x n_envs 2 = 1024 env steps, the smallest run with our hyperparameters
     cmd = [sys.executable, "-m", "rl_zoo3.train", "--algo", "ppo", "--env", "evertgym/UBend-v0", "--gym-packages", "evertgym",
            "-conf", str(AGENTS / "ppo.yml"), "-n", "1024", "--log-folder", str(tmp_path), "--seed", "0", "--eval-freq", "-1"]
-    done = subprocess.run(cmd, capture_output=True, text=True, timeout=600, cwd=tmp_path)
+    env = {**os.environ, "PYTHONPATH": str(AGENTS.parent)}  # this checkout's package, whatever is installed
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=600, cwd=tmp_path, env=env)
     assert done.returncode == 0, done.stderr[-2000:]
     run = tmp_path / "ppo" / "evertgym-UBend-v0_1"
     assert (run / "evertgym-UBend-v0.zip").is_file() and (run / "evertgym-UBend-v0" / "vecnormalize.pkl").is_file()
     used = dict(yaml.unsafe_load((run / "evertgym-UBend-v0" / "config.yml").read_text()))
-    assert used["n_steps"] == 512 and used["batch_size"] == 128 and used["env_kwargs"] == {"tip_sensing": True}
+    # the env kwargs of the zoo file's entry, the engine the config pins among them
+    entry = yaml.safe_load((AGENTS / "ppo.yml").read_text())["evertgym/UBend-v0"]
+    assert entry["env_kwargs"] == {"tip_sensing": True, "sim_config": {"engine": "dynamic"}}
+    assert used["n_steps"] == 512 and used["batch_size"] == 128 and used["env_kwargs"] == entry["env_kwargs"]

@@ -16,7 +16,15 @@ import gymnasium as gym
 import numpy as np
 
 from evertgym.agents.baselines import Policy, run_episode
-from evertgym.agents.policies import check_observation_shape, for_env, make_policy, resolve_policy_path, shipped_policies
+from evertgym.agents.policies import (
+    SB3Policy,
+    check_observation_shape,
+    for_env,
+    make_policy,
+    on_trained_engine,
+    resolve_policy_path,
+    shipped_policies,
+)
 from evertgym.agents.trust import sha256_of
 from evertgym.env.eversion_env import HELD_OUT_SEED_BASE, engine_of
 from evertgym.limits import MAX_EPISODES
@@ -34,6 +42,9 @@ def _policy_and_env(policy_json: str, env_id: str, kwargs_json: str, trust: bool
     import json
 
     policy = make_policy(json.loads(policy_json), trust=trust)
+    # the engine was settled before any episode (on_trained_engine), with the override if given
+    if isinstance(policy, SB3Policy):
+        policy.check_engine = False
     # observation flags a trained model needs; they do not change the physics (its other
     # training kwargs, e.g. a randomised lag, do not apply: the evaluation's are the same for all)
     env = gym.make(env_id, **{**json.loads(kwargs_json), **getattr(policy, "observation_kwargs", {})})
@@ -128,7 +139,8 @@ def outcome_check_kwargs(env_kwargs: dict | None) -> list[dict]:
 
 def evaluate(policies: list[str | dict], env_id: str, episodes: int, env_kwargs: dict | None = None,
              seed_base: int = HELD_OUT_SEED_BASE, workers: int = 1, trust: bool = False,
-             progress: bool = False, db: str | Path | None = None, check_outcomes: bool = False) -> list[dict]:
+             progress: bool = False, db: str | Path | None = None, check_outcomes: bool = False,
+             allow_engine_mismatch: bool = False) -> list[dict]:
     """One row per policy: success rate (Wilson 95%), mean time to goal, peak pressure and
     max contact force (and ``unconverged_solves``, ``episodes_unconverged``: the quasi-static solves
     that ended above the tolerance and the episodes that had any) over ``episodes`` episodes whose seeds (and scene seeds) are
@@ -147,7 +159,13 @@ def evaluate(policies: list[str | dict], env_id: str, episodes: int, env_kwargs:
     whose success differs between the plays is undecided: the settings, not the physics, choose its
     outcome.  Each row then adds ``undecided_episodes``, ``undecided_seeds`` and ``success_low`` /
     ``success_high``: the success rate with every undecided episode counted a failure / a success.
-    The other columns stay those of the env's own settings."""
+    The other columns stay those of the env's own settings.
+
+    A trained model runs on the simulator engine it was trained on: without an engine in
+    ``env_kwargs`` the episodes run on the trained models' engine
+    (:func:`~evertgym.agents.policies.on_trained_engine`); a model trained on another engine
+    than the one ``env_kwargs`` name, or models trained on different engines, raise a one-line
+    ``ValueError`` unless ``allow_engine_mismatch=True``."""
     if not (isinstance(episodes, int) and 1 <= episodes <= MAX_EPISODES):
         raise ValueError(f"episodes = {episodes!r} is out of range: allowed integers in [1, {MAX_EPISODES}]")
     if not (isinstance(workers, int) and workers >= 1):
@@ -155,6 +173,7 @@ def evaluate(policies: list[str | dict], env_id: str, episodes: int, env_kwargs:
     # "tuned" means the parameters tuned on this env; baselines are built once here, so a
     # bad parameter or a missing tuned file fails before any episode, in one line
     descs = [for_env(desc, env_id) for desc in policies]
+    env_kwargs = on_trained_engine(descs, env_kwargs, allow_engine_mismatch, "allow_engine_mismatch=True")
     models = {"agent", *shipped_policies()}
     for desc, d in zip(policies, descs):
         if d.get("name") not in models:

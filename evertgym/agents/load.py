@@ -31,7 +31,7 @@ def require_rl(what: str) -> None:
 
 
 def load_policy(name_or_path: str | Path, deterministic: bool | None = None,
-                trust: bool = False) -> tuple[Policy, str | None, dict]:
+                trust: bool = False, allow_engine_mismatch: bool = False) -> tuple[Policy, str | None, dict]:
     """A trained policy with the env id and env kwargs it was trained with.
 
     ``name_or_path`` is a shipped policy's name (:func:`shipped_policies`, e.g.
@@ -43,6 +43,11 @@ def load_policy(name_or_path: str | Path, deterministic: bool | None = None,
     ``act(obs, info)``) and applies the model's VecNormalize statistics itself; its SB3
     model is ``policy.model``.  A model that is not a shipped policy loads only with
     ``trust=True`` (model files are code: :mod:`evertgym.agents.trust`).
+
+    ``env_kwargs`` name the simulator engine the model was trained on (``sim_config["engine"]``),
+    and ``policy.reset(env)`` refuses, in one line, an env on another engine: a model trained on
+    the dynamic engine is not silently run on the quasi-static one.  ``allow_engine_mismatch=True``
+    lets it run there.
     """
     require_rl("load_policy")
     path = resolve_policy_path(name_or_path)
@@ -50,7 +55,12 @@ def load_policy(name_or_path: str | Path, deterministic: bool | None = None,
     env_id = policy.env_id
     if env_id is not None:
         _adopt_observation_space(policy.model, env_id, policy.env_kwargs)
-    return policy, env_id, dict(policy.env_kwargs)
+    policy.check_engine = not allow_engine_mismatch
+    env_kwargs = dict(policy.env_kwargs)
+    sim = env_kwargs.get("sim_config")
+    if policy.engine is not None and (sim is None or isinstance(sim, dict)):  # the engine named, not left to the default
+        env_kwargs["sim_config"] = {**(sim or {}), "engine": policy.engine}
+    return policy, env_id, env_kwargs
 
 
 def _adopt_observation_space(model, env_id: str, env_kwargs: dict) -> None:

@@ -15,7 +15,8 @@ from evertgym.agents.describe import for_env, make_baseline, policy_desc
 from evertgym.agents.residual import check_residual, combine, make_rule, with_base
 from evertgym.agents.tuned import shipped_dir
 
-__all__ = ["SB3Policy", "check_observation_shape", "for_env", "make_baseline", "make_policy", "model_meta", "observation_fix", "refuse_trust_field",
+__all__ = ["SB3Policy", "check_observation_shape", "engine_mismatch", "for_env", "on_trained_engine", "trained_engine",
+           "make_baseline", "make_policy", "model_meta", "observation_fix", "refuse_trust_field",
            "policy_cards", "policy_desc", "resolve_policy_path", "shipped_policies", "vecnormalize_path"]
 
 _CHECKPOINT = re.compile(r"(?P<prefix>.+)_(?P<steps>\d+)_steps")
@@ -38,15 +39,20 @@ def model_meta(path: str | Path) -> dict:
     checkpoints), else, for a checkpoint in a run's ``checkpoints/`` folder, from the run's
     ``config.json`` (runs trained before checkpoints carried their own); ``{}`` without
     either.  Only JSON is read: nothing is unpickled."""
+    from evertgym.env import current_id
+
     path = Path(path)
     meta = path.with_name(path.stem + "_env.json")
     if meta.is_file():
-        return dict(json.loads(meta.read_text(encoding="utf-8")))
+        found = dict(json.loads(meta.read_text(encoding="utf-8")))
+        if "env_id" in found:
+            found["env_id"] = current_id(found["env_id"])  # a model saved under an env's former id
+        return found
     run_config = path.parent.parent / "config.json"
     if path.parent.name == "checkpoints" and _CHECKPOINT.fullmatch(path.stem) and run_config.is_file():
         cfg = json.loads(run_config.read_text(encoding="utf-8")).get("config", {})
         if "env_id" in cfg:
-            found = {"env_id": cfg["env_id"], "env_kwargs": cfg.get("env_kwargs", {}), "deterministic": cfg.get("deterministic", True)}
+            found = {"env_id": current_id(cfg["env_id"]), "env_kwargs": cfg.get("env_kwargs", {}), "deterministic": cfg.get("deterministic", True)}
             if cfg.get("residual_spec") is not None:
                 found["residual"] = cfg["residual_spec"]
             return found
@@ -98,6 +104,82 @@ def check_observation_shape(policy: Policy, env: Any, label: str) -> None:
     raise ValueError(f"policy {label!r} takes observations of shape {want} but {env_id} gives {got}: {how}")
 
 
+def _meta_engine(meta: dict) -> str | None:
+    """The engine a model's metadata says it was trained on (None without metadata)."""
+    from evertgym.env.eversion_env import engine_of
+
+    if not meta:
+        return None
+    return str(meta.get("engine") or engine_of(meta.get("env_kwargs", {})))
+
+
+def trained_engine(desc: str | dict) -> str | None:
+    """The simulator engine a trained policy (a description :func:`make_policy` takes) was trained
+    on, from its metadata (:func:`model_meta`; only JSON is read); None for a baseline or a model
+    without metadata."""
+    d = policy_desc(desc)
+    name = d.get("name")
+    if name == "agent":
+        path = resolve_policy_path(d["path"])
+    elif name in shipped_policies():
+        path = resolve_policy_path(name)
+    else:
+        return None
+    return _meta_engine(model_meta(path))
+
+
+def _names_engine(env_kwargs: dict) -> bool:
+    from evertgym.sim import SimConfig
+
+    sim = env_kwargs.get("sim_config")
+    return isinstance(sim, SimConfig) or (isinstance(sim, dict) and "engine" in sim)
+
+
+def _with_engine(env_kwargs: dict, engine: str) -> dict:
+    sim = env_kwargs.get("sim_config")
+    if sim is not None and not isinstance(sim, dict):
+        import dataclasses
+
+        return {**env_kwargs, "sim_config": dataclasses.replace(sim, engine=engine)}
+    return {**env_kwargs, "sim_config": {**(sim or {}), "engine": engine}}
+
+
+def engine_mismatch(label: str, trained: str, running: str, override: str, python: bool = False) -> str:
+    """One line: a model trained on one engine about to run on another, and the two ways on
+    (command-line flags, or Python arguments with ``python=True``)."""
+    fix = (f"make the env with load_policy's env_kwargs (sim_config={{'engine': {trained!r}}})" if python
+           else f"pass --env-kwargs '{{\"sim_config\": {{\"engine\": \"{trained}\"}}}}'")
+    return (f"policy {label!r} was trained on the {trained} engine but the env runs the {running} engine: {fix} to run it "
+            f"on its own engine, or {override} to run it on the {running} engine anyway")
+
+
+def on_trained_engine(policies: list, env_kwargs: dict | None, allow_mismatch: bool = False,
+                      override: str = "--allow-engine-mismatch") -> dict:
+    """The env kwargs on which ``policies`` (descriptions) run: ``env_kwargs`` when they name an
+    engine, else with the engine the trained policies among them were trained on (when it is not the
+    default already).  Raises a one-line ``ValueError`` when a trained policy would run on another
+    engine than its own (policies trained on different engines, or ``env_kwargs`` naming another),
+    naming the difference and ``override``; ``allow_mismatch=True`` runs them anyway."""
+    from evertgym.env.eversion_env import engine_of
+
+    kwargs = dict(env_kwargs or {})
+    engines = {str(p if isinstance(p, str) else p.get("name", p)): e for p in policies if (e := trained_engine(p)) is not None}
+    if not engines or allow_mismatch:
+        return kwargs
+    if not _names_engine(kwargs) and len(set(engines.values())) == 1:
+        engine = next(iter(engines.values()))
+        return kwargs if engine == engine_of(kwargs) else _with_engine(kwargs, engine)
+    running = engine_of(kwargs)
+    if not _names_engine(kwargs):
+        trained = ", ".join(f"{label} on the {engine}" for label, engine in engines.items())
+        raise ValueError(f"the trained policies were trained on different engines ({trained}): run them one engine at a time, "
+                         f"or pass {override} to run them all on the {running} engine")
+    for label, engine in engines.items():
+        if engine != running:
+            raise ValueError(engine_mismatch(label, engine, running, override))
+    return kwargs
+
+
 class SB3Policy(Policy):
     """A saved stable-baselines3 model (``.zip``), with its VecNormalize statistics if they
     lie beside it (:func:`vecnormalize_path`), and the env it was trained with (:func:`model_meta`).
@@ -147,6 +229,10 @@ class SB3Policy(Policy):
         #: flags among them (``observation_kwargs``), so every policy meets the same physics
         self.env_kwargs = shipped.get("env_kwargs", {})
         self.observation_kwargs = {k: v for k, v in self.env_kwargs.items() if k in OBSERVATION_KWARGS}
+        #: the simulator engine it was trained on (None when nothing beside the model says)
+        self.engine: str | None = _meta_engine(shipped)
+        #: whether ``reset`` refuses an env on another engine (:func:`evertgym.agents.load_policy` sets it)
+        self.check_engine = False
         self.deterministic = bool(shipped.get("deterministic", True)) if deterministic is None else bool(deterministic)
         if not self.deterministic and not isinstance(self.model, PPO):
             raise ValueError(f"policy path = {str(path)!r}: stochastic actions are supported for PPO models only")
@@ -171,6 +257,10 @@ class SB3Policy(Policy):
 
     def reset(self, env) -> None:
         check_observation_shape(self, env, str(self.path))
+        running = getattr(getattr(env.unwrapped, "sim_config", None), "engine", None)
+        if self.check_engine and self.engine is not None and running is not None and running != self.engine:
+            raise ValueError(engine_mismatch(str(self.path), self.engine, running, "load_policy(..., allow_engine_mismatch=True)",
+                                             python=True))
         super().reset(env)
         seed = getattr(env.unwrapped, "np_random_seed", None)
         self.rng = np.random.default_rng(None if seed is None or seed < 0 else int(seed))
@@ -212,7 +302,7 @@ def policy_cards() -> list[dict]:
     (``deterministic``), its training config (``config``, a path; None if not shipped) and
     its held-out success (``held_out``: ``episodes``, ``successes``, ``ci_low``,
     ``ci_high``, the evaluation's ``env_kwargs``, ``engine`` and ``source``, from the shipped
-    ``held_out.json`` written by ``scripts/held_out_index.py``; None if not listed), the engine
+    ``held_out.json`` written by ``python -m evertgym.agents.held_out``; None if not listed), the engine
     it was trained on (``engine``: its ``final_env.json``'s, else the one its ``sim_config``
     names, else the default) and whether it senses the tip (``senses_tip``: a tip force sensor,
     which an operator does not have).  Only JSON is read: no model is loaded."""

@@ -7,12 +7,12 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 
-from evertgym.agents.policies import for_env, make_policy
-from evertgym.env.eversion_env import HELD_OUT_SEED_BASE
+from evertgym.agents.policies import for_env, make_policy, on_trained_engine
+from evertgym.env.eversion_env import HELD_OUT_SEED_BASE, engine_of
 
 
 def rollout_gif(policy_desc: str | dict, env_id: str, out: str | Path, seed: int = 0, every: int = 2, trust: bool = False,
-                progress: bool = False, env_kwargs: dict | None = None) -> dict:
+                progress: bool = False, env_kwargs: dict | None = None, allow_engine_mismatch: bool = False) -> dict:
     """Run one episode with ``render_mode="rgb_array"``; every ``every``-th frame goes to ``out``.
     The episode is held-out episode ``seed``: episode and scene seed ``HELD_OUT_SEED_BASE +
     seed``, the same episode as :func:`evertgym.agents.evaluate.evaluate`'s ``seed``-th, which
@@ -20,15 +20,19 @@ def rollout_gif(policy_desc: str | dict, env_id: str, out: str | Path, seed: int
     observation flags).  Returns the outcome, ``episode_seed`` and the pressure command of
     every control step (``command_kpa``).
     ``trust=True`` loads a saved model that is not a shipped policy (model files are code).
-    ``progress`` shows a bar over the episode's control steps (on stderr)."""
+    ``progress`` shows a bar over the episode's control steps (on stderr).  A trained model runs on
+    the engine it was trained on, as in :func:`~evertgym.agents.evaluate.evaluate` (the same
+    ``allow_engine_mismatch``); ``engine`` in the result names the one the episode ran on."""
     from PIL import Image
     from tqdm import tqdm
 
     out = Path(out)
     if out.suffix.lower() != ".gif":
         raise ValueError(f"--out = {str(out)!r}: expected a .gif file")
-    policy = make_policy(for_env(policy_desc, env_id), trust=trust)
-    env = gym.make(env_id, render_mode="rgb_array", **{**(env_kwargs or {}), **getattr(policy, "observation_kwargs", {})})
+    desc = for_env(policy_desc, env_id)
+    env_kwargs = on_trained_engine([desc], env_kwargs, allow_engine_mismatch, "allow_engine_mismatch=True")
+    policy = make_policy(desc, trust=trust)
+    env = gym.make(env_id, render_mode="rgb_array", **{**env_kwargs, **getattr(policy, "observation_kwargs", {})})
     episode_seed = HELD_OUT_SEED_BASE + seed
     obs, info = env.reset(seed=episode_seed, options={"scene_seed": episode_seed})
     policy.reset(env)
@@ -53,4 +57,4 @@ def rollout_gif(policy_desc: str | dict, env_id: str, out: str | Path, seed: int
     env.close()
     return {"frames": len(images), "success": bool(info["success"]), "time_s": round(float(info["time_s"]), 2),
             "peak_pressure_kpa": round(float(info["peak_pressure_kpa"]), 3), "command_kpa": commands, "out": str(out),
-            "episode_seed": episode_seed}
+            "episode_seed": episode_seed, "engine": engine_of(env_kwargs)}

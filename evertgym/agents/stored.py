@@ -1,8 +1,8 @@
-"""Held-out episodes read back from evaluation stores (``evertgym eval --db``, ``scripts/baseline_table.py --db``).
+"""Held-out episodes read back from evaluation stores (``evertgym eval --db``, ``evertgym baselines --db``).
 
 Every finished episode is a trial record keyed by its policy's label (the store's group), the env id (the scene's
 family), the env kwargs it was played with (the scene's params) and its seed; these helpers pick one env's held-out
-episodes out of a store, for the paired comparisons of ``scripts/paired_difference.py`` and ``scripts/headroom.py``.
+episodes out of a store, for the paired comparisons of ``evertgym paired`` and ``evertgym headroom``.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ RANDOMISED_LAG = {"regulator_tau_s": [0.1, 0.6]}
 
 def default_env_kwargs(env_id: str) -> dict:
     """The env kwargs the held-out tables were played with: the randomised lag, less what the id's preset draws
-    itself (Tortuous-v1 draws the lag: ``{}``).  A ValueError names an unknown id."""
+    itself (TortuousHard-v0 draws the lag: ``{}``).  A ValueError names an unknown id."""
     preset = preset_kwargs(env_id)
     return {k: v for k, v in RANDOMISED_LAG.items() if k not in preset}
 
@@ -63,3 +63,40 @@ def policy_episodes(flag: str, spec: str, env_id: str, episodes: int, env_kwargs
     if not group:
         raise ValueError(f"{flag} = {spec!r}: expected STORE:POLICY (the policy's label in the store)")
     return db, group, held_out_episodes(db, env_id, episodes, env_kwargs, group=group).get(group, {})
+
+
+def paired_difference(env_id: str, first: str, second: str, key: str = "max_contact_force_n", episodes: int = 200,
+                      env_kwargs: dict | None = None) -> list[str]:
+    """Two policies on the same held-out episodes, read from evaluation stores (``STORE:POLICY`` each, as
+    :func:`policy_episodes` takes them): over the episodes both have, the two means of the per-episode
+    figure ``key``, the mean difference (second minus first) with its normal 95% interval, the Wilcoxon
+    signed-rank p-value and in how many episodes the second is lower; then both successes with the exact
+    McNemar test on the discordant episodes.  Returns the printed lines; a one-line ``ValueError`` for
+    bad input or fewer than 2 shared episodes."""
+    import math
+
+    import numpy as np
+    from scipy import stats
+
+    kwargs = default_env_kwargs(env_id) if env_kwargs is None else env_kwargs
+    ra = policy_episodes("--a", first, env_id, episodes, kwargs)[2]
+    rb = policy_episodes("--b", second, env_id, episodes, kwargs)[2]
+    seeds = sorted(set(ra) & set(rb))
+    if len(seeds) < 2:
+        raise ValueError(f"only {len(seeds)} episodes in both stores for {env_id} with env kwargs {json.dumps(kwargs)}")
+    a = {s: float(ra[s][key]) for s in seeds}
+    b = {s: float(rb[s][key]) for s in seeds}
+    d = np.array([b[s] - a[s] for s in seeds])
+    half = 1.96 * d.std(ddof=1) / math.sqrt(len(d))
+    sa = [bool(ra[s]["success"]) for s in seeds]
+    sb = [bool(rb[s]["success"]) for s in seeds]
+    only_a = sum(x and not y for x, y in zip(sa, sb))
+    only_b = sum(y and not x for x, y in zip(sa, sb))
+    p = stats.binomtest(only_a, only_a + only_b, 0.5).pvalue if only_a + only_b else 1.0
+    return [
+        f"{env_id}, {len(seeds)} episodes in both, {key}: first {np.mean(list(a.values())):.4f}, second {np.mean(list(b.values())):.4f}",
+        f"second - first: {d.mean():+.4f}, 95% interval [{d.mean() - half:+.4f}, {d.mean() + half:+.4f}], "
+        f"Wilcoxon p = {stats.wilcoxon(d).pvalue:.2g}, second lower in {(d < 0).sum()} of {len(d)}",
+        f"success: first {sum(sa)}/{len(seeds)}, second {sum(sb)}/{len(seeds)}; passed by the first only "
+        f"{only_a}, by the second only {only_b}, exact McNemar p = {p:.2g}",
+    ]

@@ -66,11 +66,28 @@ ALGOS = ("ppo", "sac")
 ROLLING_EPISODES = 100
 
 
-def load_config(path: str | Path, seed: int | None = None) -> dict:
-    """Read and validate a training config (errors name the field).  ``seed`` replaces the
-    config's seed and names the run ``<name>_seed<seed>``, so the seeds of one config train
-    side by side into their own folders."""
-    path = Path(path)
+def resolve_config(name_or_path: str | Path) -> Path:
+    """A training config's file: ``name_or_path`` itself when it is a file, else the shipped config of
+    that name (``"ubend_ppo"`` -> ``agents/ubend_ppo.toml``).  Raises ``ValueError`` naming the shipped ones."""
+    from evertgym.agents.tuned import shipped_dir
+
+    path = Path(name_or_path)
+    if path.is_file():
+        return path
+    shipped = shipped_dir() / f"{name_or_path}.toml"
+    if path.suffix == "" and shipped.is_file():
+        return shipped
+    names = sorted(p.stem for p in shipped_dir().glob("*.toml"))
+    raise ValueError(f"config = {str(name_or_path)!r}: neither a file nor a shipped config; shipped: {names}")
+
+
+def load_config(path: str | Path, seed: int | None = None, timesteps: int | None = None) -> dict:
+    """Read and validate a training config (errors name the field); ``path`` may name a shipped
+    config (:func:`resolve_config`).  ``seed`` replaces the config's seed and names the run
+    ``<name>_seed<seed>``, so the seeds of one config train side by side into their own folders.
+    ``timesteps`` replaces ``n_timesteps`` and names the run ``<name>_<timesteps>steps``: a short
+    try never resumes, or counts as, the full run."""
+    path = resolve_config(path)
     try:
         cfg = tomllib.loads(path.read_text(encoding="utf-8"))
     except (OSError, tomllib.TOMLDecodeError) as e:
@@ -79,6 +96,9 @@ def load_config(path: str | Path, seed: int | None = None) -> dict:
     if seed is not None:
         cfg["seed"] = check_int("seed", seed, 0, 2**31 - 1)
         cfg["name"] = f"{cfg['name']}_seed{seed}"
+    if timesteps is not None:
+        cfg["n_timesteps"] = check_int("timesteps", timesteps, 1, 10**9)
+        cfg["name"] = f"{cfg['name']}_{timesteps}steps"
     # the run folder is <out>/<name>: a plain folder name keeps every output inside --out
     if not (isinstance(cfg["name"], str) and re.fullmatch(r"[A-Za-z0-9_][A-Za-z0-9_.-]{0,99}", cfg["name"])):
         raise ValueError(f"{path}: name = {cfg['name']!r} is not allowed: allowed a folder name of letters, digits, "
@@ -184,13 +204,13 @@ def _load_checkpoint(ckpt_dir: Path, normalize: bool, load):
     raise ValueError(f"--resume: no complete checkpoint in {ckpt_dir}" + (f" (torn: {', '.join(errors)})" if errors else ""))
 
 
-def run_status(config_path: str | Path, out_dir: str | Path = "runs", seed: int | None = None) -> dict:
+def run_status(config_path: str | Path, out_dir: str | Path = "runs", seed: int | None = None, timesteps: int | None = None) -> dict:
     """What training the config into ``out_dir`` would do: ``{"run_dir", "n_timesteps",
     "checkpoint_steps", "finished"}``.  ``checkpoint_steps`` is the step count of the newest
     complete checkpoint (None without one); ``finished`` says the run folder holds a final
     model trained to the config's ``n_timesteps`` (its ``eval.json``).  Raises ``ValueError``
     when the folder has checkpoint files of which none is complete."""
-    cfg = load_config(config_path, seed)
+    cfg = load_config(config_path, seed, timesteps)
     run_dir = Path(out_dir) / cfg["name"]
     ckpt_dir = run_dir / "checkpoints"
     found = _checkpoints(ckpt_dir, cfg.get("normalize", False)) if ckpt_dir.is_dir() else []
@@ -209,11 +229,11 @@ def run_status(config_path: str | Path, out_dir: str | Path = "runs", seed: int 
 
 
 def train(config_path: str | Path, out_dir: str | Path = "runs", resume: bool | None = None, progress: bool = True,
-          seed: int | None = None) -> dict:
+          seed: int | None = None, timesteps: int | None = None) -> dict:
     """Train (or resume) the config's agent; returns the final evaluation summary with the
     training's wall time (``train_wall_s``, s), the run folder (``run_dir``), the step count
     it resumed from (``resumed_from_steps``, None for a fresh run) and ``already_trained``.
-    ``seed`` overrides the config's (see :func:`load_config`).
+    ``seed`` and ``timesteps`` override the config's (see :func:`load_config`).
 
     ``resume=None`` (the default, and the command line without ``--resume``) continues from
     the newest checkpoint of the run folder when it has one and starts at step 0 when it has
@@ -237,8 +257,8 @@ def train(config_path: str | Path, out_dir: str | Path = "runs", resume: bool | 
     )
 
     torch.set_num_threads(1)  # small MLPs: threads only fight the env workers for the cores
-    cfg = load_config(config_path, seed)
-    status = run_status(config_path, out_dir, seed)
+    cfg = load_config(config_path, seed, timesteps)
+    status = run_status(config_path, out_dir, seed, timesteps)
     run_dir = Path(out_dir) / cfg["name"]
     if status["finished"] and resume is not False:
         done = json.loads((run_dir / "eval.json").read_text(encoding="utf-8"))

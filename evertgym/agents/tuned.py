@@ -1,7 +1,7 @@
 """The tuned heuristic: the operator protocol with the best parameters of a small search,
 one set per env, searched on that env's training scenes.
 
-:func:`tune_operator` (run by ``scripts/tune_operator.py``) tries every point of
+:func:`tune_operator` (run by ``evertgym tune``) tries every point of
 :data:`GRID` on the same training episodes of an env and keeps the best: the highest
 success rate, then the lowest mean peak pressure.  Training episodes are
 ``reset(seed=k)`` for ``k < episodes``: their scene seeds are drawn from the env's
@@ -75,11 +75,11 @@ def load_tuned(path: str | Path | None = None, env_id: str | None = None) -> Ope
         p = tuned_path(env_id)
         if not p.exists():
             raise ValueError(f"tuned: env_id = {env_id!r} has no tuned operator parameters: tuned for {tuned_envs()}; "
-                             f"run python scripts/tune_operator.py --env {env_id}")
+                             f"run evertgym tune --env {env_id}")
     else:
         p = TUNED_PATH
     if not p.exists():
-        raise ValueError(f"tuned heuristic file {str(p)!r} does not exist: run scripts/tune_operator.py")
+        raise ValueError(f"tuned heuristic file {str(p)!r} does not exist: run evertgym tune --env ENV")
     data = json.loads(p.read_text())
     if env_id is not None and data.get("env") != env_id:
         raise ValueError(f"tuned: {str(p)!r} was tuned on env {data.get('env')!r}, not env_id = {env_id!r}")

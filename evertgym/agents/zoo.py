@@ -2,7 +2,7 @@
 
 The TOML configs in ``agents/`` (``evertgym train agents/ubend_ppo.toml``) are the source;
 ``agents/ppo.yml`` and ``agents/sac.yml`` are rl-zoo3's format of the same
-hyperparameters, keyed by env id, written by ``python scripts/write_zoo_yaml.py`` (a test
+hyperparameters, keyed by env id, written by ``python -m evertgym.agents.zoo`` (a test
 checks they are up to date).  Train with rl-zoo3::
 
     python -m rl_zoo3.train --algo ppo --env evertgym/UBend-v0 --gym-packages evertgym -conf agents/ppo.yml
@@ -19,7 +19,7 @@ from typing import Any
 from evertgym.agents.train import load_config
 
 #: Header of every generated file.
-HEADER = "# Generated from agents/*.toml by `python scripts/write_zoo_yaml.py`; edit the TOML, not this file.\n"
+HEADER = "# Generated from agents/*.toml by `python -m evertgym.agents.zoo`; edit the TOML, not this file.\n"
 
 
 def zoo_hyperparams(cfg: dict) -> dict[str, Any]:
@@ -52,3 +52,18 @@ def zoo_files(config_paths: list[str | Path]) -> dict[str, str]:
             raise ValueError(f"{path}: a second {cfg['algo']} config for {cfg['env_id']}; rl-zoo3 takes one per env")
         entries[cfg["env_id"]] = zoo_hyperparams(cfg)
     return {algo: HEADER + yaml.safe_dump(entries, sort_keys=False) for algo, entries in by_algo.items()}
+
+
+def main() -> None:
+    """Rewrite the shipped ``ppo.yml`` and ``sac.yml`` from the shipped configs (``python -m evertgym.agents.zoo``)."""
+    from evertgym.agents.tuned import shipped_dir
+
+    folder = shipped_dir()
+    for algo, text in zoo_files(sorted(folder.glob("*.toml"))).items():
+        out = folder / f"{algo}.yml"
+        out.write_text(text, encoding="utf-8")
+        print(f"wrote {out}")
+
+
+if __name__ == "__main__":
+    main()

@@ -20,6 +20,9 @@ if TYPE_CHECKING:
     from evertgym.env.eversion_env import EversionEnv
 
 ENTRY_POINT = "evertgym.env.eversion_env:EversionEnv"
+#: Former ids of registered envs -> their ids now: a saved model's metadata naming a former id gets the new
+#: one (:func:`current_id`); the command line refuses a former id naming the new one.
+RENAMED_IDS = {"evertgym/Tortuous-v1": "evertgym/TortuousHard-v0"}
 #: the domain-randomisation arguments a preset's ``[randomisation]`` table may set (ranges checked by the env)
 RANDOMISATION_KEYS = ("regulator_tau_s", "wall_friction", "pressure_noise_kpa", "insertion_noise_mm")
 
@@ -43,6 +46,11 @@ def preset_kwargs(env_id: str) -> dict:
     return kw
 
 
+def current_id(env_id: str) -> str:
+    """``env_id``, or the id it was renamed to (:data:`RENAMED_IDS`)."""
+    return RENAMED_IDS.get(env_id, env_id)
+
+
 def register_envs() -> list[str]:
     """Register every preset with Gymnasium (idempotent); returns the ids."""
     ids = []
@@ -64,4 +72,4 @@ def __getattr__(name: str) -> Any:
     raise AttributeError(f"module 'evertgym.env' has no attribute {name!r}")
 
 
-__all__ = ["EversionEnv", "preset_kwargs", "register_envs"]
+__all__ = ["RENAMED_IDS", "EversionEnv", "current_id", "preset_kwargs", "register_envs"]

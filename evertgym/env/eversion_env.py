@@ -68,7 +68,9 @@ class EversionEnv(gym.Env):
     ==========  ==================================================================  ======
 
     The command is clipped to [0, 8] kPa (the seal ruptures above it); the regulator's lag
-    (``SimConfig.regulator_tau_s``) applies.  A NaN or infinite action raises ``ValueError``.
+    (``SimConfig.regulator_tau_s``) applies.  An action outside [-1, 1] (a pressure in kPa passed
+    as the action, say) is clipped to it with a ``UserWarning``, once per env.  A NaN or
+    infinite action raises ``ValueError``.
 
     **Observation space** ``Box(low, high, (n,), float32)``, ``n = 3 (history + 1)
     + 2 tip_sensing + 10 scene_ahead``.  By default only what an operator has.  For ``k = 0
@@ -259,6 +261,7 @@ class EversionEnv(gym.Env):
         self.max_episode_s = float(max_episode_s)
         self.action_mode = action_mode
         self.max_increment_pa = max_increment_kpa * 1e3
+        self._warned_action = False  # an action outside the action space is clipped with one warning per env
         self.history = history
         self.tip_sensing = tip_sensing
         self.scene_ahead = scene_ahead
@@ -390,6 +393,12 @@ class EversionEnv(gym.Env):
         if self._ended:
             raise RuntimeError(f"step() after the episode ended ({self._outcome}): call reset() to start the next episode")
         u = float(np.clip(a[0], -1.0, 1.0))
+        if u != a[0] and abs(u - a[0]) > 1e-6 and not self._warned_action:
+            self._warned_action = True
+            meaning = ("the command is p = (a + 1) / 2 * 8 kPa" if self.action_mode == "absolute"
+                       else f"the command changes by a * {self.max_increment_pa / 1e3:g} kPa per step")
+            warnings.warn(f"action = {a[0]:g} is outside the action space [-1, 1] and is clipped to {u:g}: actions are scaled, "
+                          f"not kPa ({meaning}); warned once per env", UserWarning, stacklevel=2)
         if self.action_mode == "absolute":
             self.command_pa = (u + 1.0) / 2.0 * MAX_PRESSURE_PA
         else:

@@ -191,7 +191,7 @@ def calibrate(progress: Callable[[str], None] = print) -> dict:
         "alpha_by_reduction": {f"{r:.1f}": a for r, a in zip(chosen.alpha_reductions, chosen.alpha_values)},
         "eversion_threshold": ev,
         "provenance": {
-            "generated_by": "scripts/calibrate_model.py",
+            "generated_by": "python -m evertgym.experiments.calibration",
             "fitted_on": "measurements.json stiffness_tests rows marked calibrate_on (Exp 1, Exp 3), k at 20 mm, log-ratio least squares",
             "held_out": "Exp 2 (predict)",
             "fixed_from_paper": "E_eff = 25.2 MPa at 6.9 kPa; pressure law of Le van & Wielgosz (2005) anchored on it",
@@ -207,3 +207,37 @@ def write_params(d: dict, path=PARAMS_PATH) -> None:
     with open(path, "w", encoding="utf-8") as f:
         json.dump(d, f, indent=2)
         f.write("\n")
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m evertgym.experiments.calibration``: fit, print every candidate and write
+    ``evertgym/data/model_params.json``; ``--dry-run`` writes nothing; ``--part eversion`` refits
+    only the eversion threshold section (seconds).  Only Exp 1 and Exp 3 (``calibrate_on`` in
+    measurements.json) enter the fit; Exp 2 is printed as a prediction."""
+    import argparse
+    import json
+    import sys
+
+    from evertgym.model.eversion import fit_eversion_threshold
+
+    ap = argparse.ArgumentParser(prog="python -m evertgym.experiments.calibration", description=main.__doc__)
+    ap.add_argument("--dry-run", action="store_true", help="print the result, do not write the parameter file")
+    ap.add_argument("--part", choices=["all", "eversion"], default="all", help="what to refit")
+    args = ap.parse_args(argv)
+    if args.part == "eversion":
+        result = json.loads(PARAMS_PATH.read_text())
+        result["eversion_threshold"] = fit_eversion_threshold()
+        print(json.dumps(result["eversion_threshold"], indent=2))
+    else:
+        result = calibrate(progress=lambda s: print(s, flush=True))
+    if args.dry_run:
+        json.dump(result, sys.stdout, indent=2)
+        print()
+    else:
+        write_params(result)
+        print(f"wrote {PARAMS_PATH}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

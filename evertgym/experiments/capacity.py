@@ -2,7 +2,7 @@
 
 Grows a robot at 8 kPa into the 20 mm U-bend, the colon, a tortuous channel and a head-on wall
 and reports the largest wall force on the tip against ``p pi r_tip^2``, under the rigid-column
-model and under the section law (``python scripts/section_law_forces.py``; asserted by
+model and under the section law (``python -m evertgym.experiments.capacity``; asserted by
 ``tests/test_section_law.py``).
 """
 
@@ -52,3 +52,17 @@ def max_tip_force(case: str, section_law: bool) -> dict[str, Any]:
     return {"case": case, "model": "section law" if section_law else "rigid column", "max_tip_force_n": sim.max_contact_force,
             "capacity_n": capacity, "ratio": sim.max_contact_force / capacity, "insertion_mm": sim.length * 1e3,
             "wall_s": time.perf_counter() - t0}
+
+
+def main() -> None:
+    """``python -m evertgym.experiments.capacity``: the table of docs/sim.md (about 1 min)."""
+    print("| case | model | max tip force (N) | p pi r^2 (N) | ratio | insertion (mm) |")
+    print("|---|---|---:|---:|---:|---:|")
+    for case in CASES:
+        for law in (False, True):
+            r = max_tip_force(case, law)
+            print(f"| {case} | {r['model']} | {r['max_tip_force_n']:.2f} | {r['capacity_n']:.2f} | {r['ratio']:.2f} | {r['insertion_mm']:.0f} |")
+
+
+if __name__ == "__main__":
+    main()

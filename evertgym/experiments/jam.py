@@ -1,6 +1,6 @@
 """Tables of jams: medians over groups of :func:`evertgym.sim.diagnostics.jam_anatomy` results.
 
-``evertgym reproduce ubend --anatomy`` and ``scripts/ubend_jam_anatomy.py`` print them.
+``evertgym reproduce ubend --anatomy`` and ``python -m evertgym.experiments.ubend_jams`` print them.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """The versioned, calibrated parameter file of the model layer.
 
-``evertgym/data/model_params.json`` is written by ``scripts/calibrate_model.py`` (never by
+``evertgym/data/model_params.json`` is written by ``python -m evertgym.experiments.calibration`` (never by
 hand) and records, beside every number, the data it was fitted on.  This module only
 reads it.  All values in the file are SI.
 """
@@ -96,7 +96,7 @@ def load_params(path: str | None = None) -> ModelParams:
 
 @lru_cache(maxsize=1)
 def load_measurements() -> dict:
-    """The paper's numbers (a copy of shared/paper/measurements.json shipped with the package)."""
+    """The paper's numbers (``evertgym/data/measurements.json``, shipped with the package)."""
     with open(MEASUREMENTS_PATH, encoding="utf-8") as f:
         return json.load(f)
 

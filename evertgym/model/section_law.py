@@ -1,6 +1,6 @@
 """The section law: axial load in the wall of an inflated tube and the limits it sets.
 
-Closed-tube statics (``shared/notes/bend-physics.md``, section 2).  Cut the everted tube at
+Closed-tube statics.  Cut the everted tube at
 material coordinate ``s``, where its radius is ``r(s)``; the distal free body (wall + gas +
 tail) balances
 
