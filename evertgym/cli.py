@@ -296,6 +296,17 @@ def cmd_bench_env(args: argparse.Namespace) -> int:
     steps = args.steps if args.steps is not None else (200 if args.against else 500)
     if args.sim and not args.against:
         raise CLIError("--sim is only used with --against: allowed together with --against REV")
+    if args.env_kwargs and not args.against:
+        raise CLIError("--env-kwargs is only used with --against: allowed together with --against REV")
+    tree_kwargs = {}
+    if args.env_kwargs:
+        try:
+            tree_kwargs = json.loads(args.env_kwargs)
+        except json.JSONDecodeError as e:
+            raise CLIError(f"--env-kwargs = {args.env_kwargs!r} is not JSON ({e.msg}): allowed a JSON object of env kwargs") from None
+        if not isinstance(tree_kwargs, dict) or "sim_config" in tree_kwargs:
+            raise CLIError(f"--env-kwargs = {args.env_kwargs!r} is not allowed: a JSON object of env kwargs, sim_config "
+                           "left to --sim")
     if not (1 <= steps <= 10**7):
         raise CLIError(f"--steps = {steps} is out of range: allowed [1, 1e7]")
     if not (1 <= args.repeats <= 100):
@@ -311,7 +322,8 @@ def cmd_bench_env(args: argparse.Namespace) -> int:
 
         with tqdm(total=len(ids) * 2 * args.repeats, desc="bench env --against", unit="run", disable=args.json) as bar:
             try:
-                result = bench_against(args.against, ids, steps, args.repeats, progress=bar.update, sim=_sim_overrides(args.sim) or None)
+                result = bench_against(args.against, ids, steps, args.repeats, progress=bar.update, sim=_sim_overrides(args.sim) or None,
+                                       env_kwargs=tree_kwargs or None)
             except BuildError as e:
                 raise CLIError(str(e)) from None
         print(dumps(result) if args.json else "\n".join(format_against(result)))
@@ -1194,6 +1206,8 @@ def build_parser() -> argparse.ArgumentParser:
     be.add_argument("--repeats", type=int, default=5, help="runs per build and id with --against, [1, 100]")
     be.add_argument("--sim", default=None, help='with --against: SimConfig overrides (JSON) for the working tree\'s envs, '
                                                'e.g. \'{"engine": "quasistatic"}\'')
+    be.add_argument("--env-kwargs", default=None, help='with --against: other env kwargs (JSON) for the working tree\'s envs, '
+                                                      'e.g. \'{"variation": "off"}\' (the physics before the bend model)')
     be.add_argument("--env", action="append", help="an env id (repeatable); default: every registered id")
     be.add_argument("--no-pin", dest="one_core", action="store_false", help="do not pin the process to one core")
     be.add_argument("--json", action="store_true", help=_JSON_HELP)

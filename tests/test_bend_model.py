@@ -167,3 +167,14 @@ def test_selection_wants_the_order_constraints_then_the_prediction_likelihood():
 
     assert select({"candidates": [cand("x", -3.0, False), cand("y", -5.0, True), cand("z", -9.0, True)]})["candidate"] == "y"
     assert select({"candidates": [cand("x", -3.0, False), cand("w", -4.0, False)]})["candidate"] == "x"
+
+
+@pytest.mark.parametrize("argv, says", [
+    (["--env-kwargs", '{"variation": "off"}'], "--env-kwargs is only used with --against"),
+    (["--against", "HEAD", "--env-kwargs", "[1]"], "--env-kwargs = '[1]' is not allowed"),
+    (["--against", "HEAD", "--env-kwargs", "{"], "is not JSON"),
+])
+def test_bench_env_kwargs_are_checked_before_any_build(argv, says, capsys):
+    assert main(["bench", "env", *argv]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and says in err[0]

@@ -24,7 +24,8 @@ def test_without_randomisation_an_episode_is_what_it_was():
                                   pressure_noise_kpa=0.0, insertion_noise_mm=0.0), seed=4)
     assert np.array_equal(a, b)
     assert info_a["regulator_tau_s"] == info_b["regulator_tau_s"] == 0.15
-    assert info_a["wall_friction"] == 1.0
+    # the bend model's friction factor (evertgym.sim.variation) multiplies the robot's coefficient of 1.0
+    assert info_a["wall_friction"] == info_b["wall_friction"] == info_a["variation"]["friction_factor"]
 
 
 def test_regulator_lag_and_wall_friction_are_drawn_per_episode_within_their_ranges():
@@ -35,7 +36,7 @@ def test_regulator_lag_and_wall_friction_are_drawn_per_episode_within_their_rang
         sim = env.unwrapped.sim
         assert sim.regulator.tau == info["regulator_tau_s"] and sim.cfg.wall_friction == info["wall_friction"]
         taus.append(info["regulator_tau_s"])
-        frictions.append(info["wall_friction"])
+        frictions.append(info["wall_friction"] / info["variation"]["friction_factor"])  # the range's draw, before the robot's factor
     assert all(0.1 <= t <= 0.6 for t in taus) and np.std(taus) > 0.05
     assert all(0.5 <= f <= 1.5 for f in frictions) and np.std(frictions) > 0.1
     # the same seed, the same draw; and the scene does not depend on it

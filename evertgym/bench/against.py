@@ -124,13 +124,15 @@ class _Build:
 
 
 def bench_against(rev: str, env_ids: Sequence[str], steps: int = 200, repeats: int = 5, seed: int = 0,
-                  progress=None, sim: dict | None = None) -> dict:
+                  progress=None, sim: dict | None = None, env_kwargs: dict | None = None) -> dict:
     """Best steps/s of ``rev`` and of the working tree per env id, and their ratio.
 
     ``repeats`` runs of ``steps`` env steps per build and id, alternating builds (ABBA...)
     on one CPU (the lowest this process may use).  ``progress``, if given, is called after
     each run.  ``sim``: SimConfig overrides for the working tree's envs only (``sim_config``; e.g.
-    its quasi-static engine against the revision's default).  Returns ``{"against",
+    its quasi-static engine against the revision's default); ``env_kwargs``: other env kwargs for the
+    working tree's envs only (e.g. ``{"variation": "off"}``: the physics of a revision before the bend
+    model, to compare the code at equal physics).  Returns ``{"against",
     "against_commit", "tree", "cpu", "steps", "repeats", "sim",
     "rows": [{"env_id", "steps_per_s_against", "steps_per_s", "ratio", "runs_against",
     "runs"}]}``.
@@ -140,7 +142,7 @@ def bench_against(rev: str, env_ids: Sequence[str], steps: int = 200, repeats: i
     with tempfile.TemporaryDirectory(prefix="evertgym-against-") as tmp:
         commit = export_revision(rev, root, Path(tmp))
         builds = {"against": _Build(f"{rev} ({commit[:12]})", Path(tmp), cpu),
-                  "tree": _Build("working tree", root, cpu, {"sim_config": dict(sim)} if sim else None)}
+                  "tree": _Build("working tree", root, cpu, {**({"sim_config": dict(sim)} if sim else {}), **(env_kwargs or {})} or None)}
         try:
             runs: dict[tuple[str, str], list[float]] = {}
             for env_id in env_ids:
@@ -159,13 +161,15 @@ def bench_against(rev: str, env_ids: Sequence[str], steps: int = 200, repeats: i
         rows.append({"env_id": env_id, "steps_per_s_against": a, "steps_per_s": t, "ratio": t / a,
                      "runs_against": runs[("against", env_id)], "runs": runs[("tree", env_id)]})
     return {"against": rev, "against_commit": commit, "tree": str(root), "cpu": cpu, "steps": steps,
-            "repeats": repeats, "sim": dict(sim or {}), "rows": rows}
+            "repeats": repeats, "sim": dict(sim or {}), "env_kwargs": dict(env_kwargs or {}), "rows": rows}
 
 
 def format_against(result: dict) -> list[str]:
     """The comparison as a text table."""
     rev = f"{result['against']} ({result['against_commit'][:12]})"
     sim = f"; working tree with sim_config {json.dumps(result['sim'])}" if result.get("sim") else ""
+    if result.get("env_kwargs"):
+        sim += f"; working tree with env kwargs {json.dumps(result['env_kwargs'])}"
     lines = [f"side by side on CPU {result['cpu']}: best of {result['repeats']} alternating runs of {result['steps']} env steps{sim}",
              f"{'env_id':26s} {rev + ' steps/s':>28s} {'working tree steps/s':>21s} {'ratio':>6s}"]
     for r in result["rows"]:

@@ -73,7 +73,9 @@ def worst_steps(steps: int = 80, only: list[int] | None = None) -> list[dict]:
     import gymnasium as gym
     import numpy as np
 
-    import evertgym  # noqa: F401  (registers the envs)
+    from evertgym.env import register_envs
+
+    register_envs()
 
     rows = []
     for k, sim in enumerate(WORST_SETTINGS):
