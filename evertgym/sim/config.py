@@ -94,7 +94,7 @@ class SimConfig:
         factorisation of the joints' Hessian and a dense Schur complement for the pieces, O(m^3); the
         two agree to rounding, not bit for bit: a number made before the switch is regenerated
         exactly with ``"dense"``).  A field that means nothing to the chosen engine is rejected.
-    Band-mechanism laws (quasi-static engine; :mod:`evertgym.sim.band_laws`, issue 26)
+    Band-mechanism laws (quasi-static engine; :mod:`evertgym.sim.band_laws`)
         ``band_fold``: an everted band folds axially (goes slack) when the tip's push and the tail's
         tension exceed ``p pi r_b^2``; growth then stops.  ``fold_pinch_per_rad``: the tail's losses
         grow by ``exp(mu_p Phi)`` with the body's excess fold angle ``Phi``.
