@@ -1,4 +1,4 @@
-"""Invariance harness (issue 13): do the answers move with the simulator's numerical knobs?
+"""Invariance harness: do the answers move with the simulator's numerical knobs?
 
 For the reference (SimConfig defaults) and one knob at a time (``mass_ratio`` 0.003 and 0.1,
 ``inertia_factor`` 10, ``dt_s`` halved to 0.001) runs ``reproduce ubend`` (every design and
@@ -10,7 +10,7 @@ start from an empty ``--out`` after a change to the physics.
 
     python scripts/invariance.py                                   # full size: 30+ min on 2 cores
     python scripts/invariance.py --trials 1 --episodes 2 --radii 40,20 --out runs/invariance_tiny
-    python scripts/invariance.py --engine quasistatic --out runs/invariance_qs   # issue 25: its own settings and criteria
+    python scripts/invariance.py --engine quasistatic --out runs/invariance_qs   # its own settings and criteria
     python scripts/invariance.py --engine quasistatic --sim '{"linear_solver": "semiseparable"}' --out runs/invariance_semi
                                                    # the same, every setting on top of these SimConfig fields
 """

@@ -63,7 +63,7 @@ def _commands_kpa(policy, n: int, control_hz: float = 10.0, obs_info=None) -> li
 def test_cycle_low_level_period_and_duty_are_parameters_in_python_and_policy_strings():
     from evertgym.agents.policies import make_policy, policy_desc
 
-    # the 0 <-> 3 kPa, 1 s wave of issue 18, spelled as the CLI spells it
+    # the 0 <-> 3 kPa, 1 s wave, spelled as the CLI spells it
     assert policy_desc("cycle:low_kpa=0,high_kpa=3,period_s=1") == {"name": "cycle", "low_kpa": 0.0, "high_kpa": 3.0, "period_s": 1.0}
     wave = _commands_kpa(make_policy("cycle:low_kpa=0,high_kpa=3,period_s=1"), 20)
     assert wave == ([3.0] * 5 + [0.0] * 5) * 2

@@ -1,4 +1,4 @@
-"""The switchable laws of the band-mechanism study (issue 26, evertgym.sim.band_laws): their
+"""The switchable laws of the band-mechanism study (evertgym.sim.band_laws): their
 formulas, their effect on the quasi-static engine's stall, and their bad input."""
 
 from __future__ import annotations

@@ -42,7 +42,7 @@ def test_help_shows_defaults_and_choices(argv, parser, capsys):
         name = f"{' '.join(argv)} {action.option_strings[0]}"
         text = parser._get_formatter()._expand_help(action)
         # every option that takes a value names its default once; an on/off flag names none
-        # (issue 28: "--no-progress  no progress bar (default: True)", "(default 1) (default: 1)")
+        # ("--no-progress  no progress bar (default: True)", "(default 1) (default: 1)")
         if action.nargs == 0:
             assert "default" not in text, f"{name}: {text!r}"
         elif not action.required:

@@ -1,4 +1,4 @@
-"""A new user's first steps (issue 28): resume after Ctrl-C, a run's own checkpoints, missing
+"""A new user's first steps: resume after Ctrl-C, a run's own checkpoints, missing
 extras, the shipped policies, progress and verdicts, and a clone named ``evertgym`` in the
 current folder."""
 

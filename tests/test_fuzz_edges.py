@@ -1,4 +1,4 @@
-"""Fuzzing issue 57's edges (hypothesis): ``--sim`` text, store and study files, scene seeds and
+"""Fuzzing edges (hypothesis): ``--sim`` text, store and study files, scene seeds and
 policy descriptions.  Each either is accepted with the right types or is refused with one line naming
 what is wrong; a refused file is never changed; a description never turns on trust."""
 

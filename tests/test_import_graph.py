@@ -199,7 +199,7 @@ def test_import_evertgym_is_light():
 def test_an_env_step_loads_no_plotting_or_fitting_library():
     """Making and stepping an env (no render mode) loads neither matplotlib, Pillow, scipy.optimize,
     scipy.interpolate, scipy.spatial nor scipy.sparse: they cost an env process about 70 MB of its
-    200 MB (issue 25's peak RSS).  The colon is the one with a compliant wall (scipy.sparse's
+    200 MB (peak RSS).  The colon is the one with a compliant wall (scipy.sparse's
     eigensolver sizes the dynamic engine's wall, which the quasi-static default never steps)."""
     import subprocess
     import sys

@@ -1,4 +1,4 @@
-"""Invariance harness (issue 13): SimConfig overrides reach every simulation; the slow test
+"""Invariance harness: SimConfig overrides reach every simulation; the slow test
 holds the criteria at full size (reproduce ubend, reproduce colon, operator on Colon-v0)."""
 
 from __future__ import annotations

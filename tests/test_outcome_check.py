@@ -1,5 +1,5 @@
 """``evaluate(check_outcomes=True)`` / ``evertgym eval --check-outcomes``: episodes whose outcome moves with a
-solver setting are reported as undecided (issue 25's knife edge, docs/quasistatic.md)."""
+solver setting are reported as undecided (knife edge, docs/quasistatic.md)."""
 
 import json
 

@@ -1,4 +1,4 @@
-"""A quasi-static solve never passes through a wall (issue 25): a solve that moves the body by more
+"""A quasi-static solve never passes through a wall: a solve that moves the body by more
 than its first contact candidates reach lists its contacts again from every wall it was given, and
 one that moves it farther than the walls it was given runs again seeing farther."""
 

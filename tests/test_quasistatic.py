@@ -1,4 +1,4 @@
-"""The quasi-static engine (issue 25): equilibrium per growth increment, frictional contact,
+"""The quasi-static engine: equilibrium per growth increment, frictional contact,
 no mass or inertia settings, solve counts reported, answers that do not move with its own
 numerical settings."""
 

@@ -1,4 +1,4 @@
-"""Robustness and security (issue 16): bad input gets one line naming the field, model files
+"""Robustness and security: bad input gets one line naming the field, model files
 are code and load only when trusted, nothing is lost, resources are bounded."""
 
 import json

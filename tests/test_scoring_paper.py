@@ -87,7 +87,7 @@ def test_the_paper_bands_sit_behind_the_free_span_at_a_ubend_jam():
 def test_ten_percent_bands_pass_the_30mm_ubend():
     """The paper's Fig. 4d: 3 x 10% bands pass the 30 mm U-bend consistently (>= 90%).  The
     quasi-static engine passes 12 of 12 (the dynamic engine 0 of 12, docs/ubend_jams.md); it
-    passes the bare robot too, which the paper's does not (issue 26)."""
+    passes the bare robot too, which the paper's does not."""
     results = [run_trial(s) for s in ubend_specs(trials=12, radii=(30.0,), reductions=(0.1,))]
     assert sum(r["success"] for r in results) >= 11
 
@@ -101,7 +101,7 @@ def test_reproduce_ubend_json_contract(tmp_path, capsys):
         assert r["trials"] == 1 and r["successes"] in (0, 1)
     assert {r["reduction"] for r in out["rows"]} == {0.0, 0.1, 0.2, 0.3}
     # the default (quasi-static) engine adds its equilibrium solves and how many ended above the tolerance
-    assert set(out) == {"rows", "solves", "physics", "unconverged_solves"}  # and the physics it was made with (issue 26)
+    assert set(out) == {"rows", "solves", "physics", "unconverged_solves"}  # and the physics it was made with
     assert out["unconverged_solves"] == out["solves"]["solve_failures"] == sum(r["unconverged_solves"] for r in out["rows"])
     assert out["solves"]["solves"] > 0 and 0 <= out["solves"]["solve_failures"] <= out["solves"]["solves"]
     # --anatomy adds the failed trials' jam anatomy from the same store, without rerunning

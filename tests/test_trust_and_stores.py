@@ -1,4 +1,4 @@
-"""Issue 57: nothing runs, nothing is written and nothing is silently wrong.
+"""Nothing runs, nothing is written and nothing is silently wrong.
 
 * trust to unpickle comes only from the person running the code (``--trust-model``, ``trust=True``),
   never from a policy spec, a trial spec, a model's env file or a store;

@@ -132,7 +132,7 @@ class PressureCycling(Policy):
     pushes it on; it needs neither sensing nor a model.  Only a low level below the
     eversion threshold deflates the robot: the default 1 kPa <-> 8 kPa wave (2 s) is the
     historical ``cycle`` baseline; ``cycle:low_kpa=0,high_kpa=3,period_s=1`` is the
-    0 <-> 3 kPa, 1 s wave of issue 18.
+    0 <-> 3 kPa, 1 s wave.
 
     Parameters: ``low_kpa`` and ``high_kpa`` in [0, 8] kPa, ``period_s`` in (0, 600] s,
     ``duty`` (fraction of the period at ``high_kpa``) in (0, 1).
@@ -174,7 +174,7 @@ class DeflateOnStall(Policy):
     as for :class:`OperatorProtocol`: the insertion grew by less than ``stall_mm`` over the
     last ``stall_s`` seconds at the high level.  After a deflation the stall window starts
     afresh, so the robot gets a full ``stall_s`` at ``high_kpa`` before the next one.
-    ``deflate:high_kpa=3,low_kpa=0,deflate_s=0.5`` is the rule of issue 18.
+    ``deflate:high_kpa=3,low_kpa=0,deflate_s=0.5`` is the standard deflate rule.
 
     Parameters: ``high_kpa`` and ``low_kpa`` in [0, 8] kPa, ``deflate_s`` in (0, 60] s,
     ``stall_s`` in (0, 60] s, ``stall_mm`` in [0, 1000] mm.

@@ -1,4 +1,4 @@
-"""Invariance of the answers under the simulator's numerical knobs (issue 13, "quasi-static validity").
+"""Invariance of the answers under the simulator's numerical knobs.
 
 Masses and inertias in :class:`~evertgym.sim.config.SimConfig` are scaled, not physical, so
 only quasi-static answers are meaningful, and they must not move with ``mass_ratio``,
@@ -45,7 +45,7 @@ SETTINGS: tuple[tuple[str, dict], ...] = (
 #: The invariance criteria: U-bend per-cell successes (of 12 trials), colon outcomes, operator success rate.
 CRITERIA = {"ubend_max_cell_change_of_12": 2, "colon_outcomes_equal": True, "operator_max_change": 0.1}
 
-#: The quasi-static engine (issue 25): its reference and its numerical settings changed one at a
+#: The quasi-static engine: its reference and its numerical settings changed one at a
 #: time (the growth increment halved, the solver tolerance ten times tighter, the pressure increment
 #: that triggers a re-solve five times finer).  It has no mass,
 #: inertia or damping settings to vary.

@@ -140,7 +140,7 @@ class Scene:
         at least ``fraction`` of its largest, each extended back by ``approach_m`` (the tip meets
         a bend's outer wall before the centreline turns).  Empty for a straight channel.
 
-        This is what "at the bend" means in the env's ``peak_pressure_bend_kpa`` (issue 18):
+        This is what "at the bend" means in the env's ``peak_pressure_bend_kpa``:
         the tightest bends of the scene, whatever the family.
         """
         k = np.abs(self.curvature)

@@ -2,7 +2,7 @@
 
 A real vine robot weighs about 9 g/m and grows at the rate its eversion allows: at every
 length its shape is a static equilibrium.  This engine computes exactly that, with no mass,
-inertia or damping to tune (``shared/notes/bend-physics.md``, sections 8-9; issue 25):
+inertia or damping to tune (``shared/notes/bend-physics.md``, sections 8-9):
 
 * **Kinematics.** The body is the same chain of segments as the dynamic engine's (joint ``j``
   at material coordinate ``j ds``; the tip segment lengthens from ``ds`` to ``2 ds``, then
