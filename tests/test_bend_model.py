@@ -44,15 +44,15 @@ def test_robots_are_shared_by_seed_and_trials_draw_their_friction():
     var = Variation(friction_median=2.0, friction_sigma=0.05)
     rng = np.random.default_rng(0)
     assert [robot_index(var, s, rng) for s in range(12)] == [0] * 4 + [1] * 4 + [2] * 4
-    a, rec_a = draw(var, 1, np.random.default_rng(5), 1.0, 0.2, True)
-    b, rec_b = draw(var, 1, np.random.default_rng(5), 1.0, 0.2, True)
-    c, _ = draw(var, 1, np.random.default_rng(6), 1.0, 0.2, True)
+    a, rec_a = draw(var, 1, np.random.default_rng(5), 1.0, 0.2)
+    b, rec_b = draw(var, 1, np.random.default_rng(5), 1.0, 0.2)
+    c, _ = draw(var, 1, np.random.default_rng(6), 1.0, 0.2)
     assert a == b and rec_a == rec_b  # bit for bit from the seeds
     assert a["stiffness_factor"] == c["stiffness_factor"] and a["threshold_z"] == c["threshold_z"]  # the same robot
     assert a["tip_friction"] != c["tip_friction"]  # another trial
     assert a["tip_friction"] / 0.2 == pytest.approx(a["wall_friction"] / 1.0) == pytest.approx(rec_a["friction_factor"])
     # the friction factor is lognormal with the declared median and spread
-    f = np.array([draw(var, 0, np.random.default_rng(i), 1.0, 0.2, True)[1]["friction_factor"] for i in range(2000)])
+    f = np.array([draw(var, 0, np.random.default_rng(i), 1.0, 0.2)[1]["friction_factor"] for i in range(2000)])
     assert np.median(f) == pytest.approx(2.0, rel=0.01)
     assert np.std(np.log(f)) == pytest.approx(0.05, rel=0.06)
 

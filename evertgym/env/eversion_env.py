@@ -344,7 +344,7 @@ class EversionEnv(gym.Env):
             # quasi-static engine's (the dynamic chain keeps its own calibration)
             robot = robot_index(self.variation, episode_seed, rng)
             varied, self._variation_record = draw_variation(self.variation, robot, rng, changes.get("wall_friction", cfg.wall_friction),
-                                                            cfg.tip_friction, True)
+                                                            cfg.tip_friction)
             changes.update(varied)
         config = dataclasses.replace(self.sim_config, **changes) if changes else self.sim_config
         return scene, design, base, config

@@ -96,10 +96,9 @@ def pass_prob(f_star: np.ndarray, median: float, sigma: float) -> float:
     return float(np.mean(ndtr(z)))
 
 
-def _variation(f: float | None, fitted: tuple[float, float] | None = None) -> dict:
-    """The trial's variation: the measured robot spreads, and a fixed friction factor ``f`` (for the
-    bisection) or the fitted lognormal ``fitted = (median, sigma)``."""
-    median, sigma = (f, 0.0) if f is not None else fitted  # type: ignore[misc]
+def _variation(median: float, sigma: float = 0.0) -> dict:
+    """The trial's variation: the measured robot spreads, and the friction factor's median and spread (a fixed
+    factor for the bisection: ``sigma = 0``)."""
     return {"friction_median": float(median), "friction_sigma": float(sigma), "robot_stiffness": True, "robot_threshold": True}
 
 
@@ -190,7 +189,7 @@ def evaluate(cand: Candidate, store: str | Path, workers: int | None = None, pro
     ll_cal10, q_cal10 = _loglik(f10, PAPER_10, BAND_CAL_RADII, m, s)
     _, q_bare = _loglik({r: f_bare[(0.0, r)] for r in radii}, PAPER_BARE, radii, m, s)
     # the 20% and 30% rows and the colon at the fitted friction, drawn per trial
-    fitted = _variation(None, (m, s))
+    fitted = _variation(m, s)
     drawn = _run(ubend_specs(TRIALS, radii=radii, reductions=(0.2, 0.3), sim=_sim(switches, 0.2), variation=fitted), store, "process",
                  workers, progress)
     rows: dict[float, dict[float, int]] = {0.2: {}, 0.3: {}}
@@ -202,20 +201,21 @@ def evaluate(cand: Candidate, store: str | Path, workers: int | None = None, pro
     colon_rows = [{"design": rec.spec.design_name, "passed": bool(rec.result["success"]),
                    "peak_pressure_kpa": float(rec.result["peak_pressure_kpa"]), "stall_position_mm": rec.result["stall_position_mm"]}
                   for rec in colon]
-    expected = {"no bands": {r: TRIALS * q_bare[r] for r in radii}, "3 x 10%": {r: TRIALS * {**q_pred, **q_cal10}[r] for r in
+    q_10 = {**q_pred, **q_cal10}
+    expected = {"no bands": {r: TRIALS * q_bare[r] for r in radii}, "3 x 10%": {r: TRIALS * q_10[r] for r in
                                                                                (*PREDICT_10_RADII, *BAND_CAL_RADII)}}
     return {"candidate": cand.name, "label": cand.label, "switches": switches, "friction": fr, "band_fit": band_fit,
             "loglik_calibration_bare": fr["loglik"], "loglik_10_at_30_25": ll_cal10, "loglik_prediction": ll_pred,
-            "q_bare": q_bare, "q_10": {**q_pred, **q_cal10}, "expected": expected,
+            "q_bare": q_bare, "q_10": q_10, "expected": expected,
             "rows_20": rows[0.2], "rows_30": rows[0.3], "colon": colon_rows,
-            "findings": findings(q_bare, {**q_pred, **q_cal10}, rows, colon_rows), "wall_s": time.perf_counter() - t0}
+            "findings": findings(q_bare, q_10, rows, colon_rows), "wall_s": time.perf_counter() - t0}
 
 
 def findings(q_bare: dict, q_10: dict, drawn: dict, colon: list[dict]) -> dict[str, bool]:
     """The issue's U-bend and colon findings on expected counts (12 q) and the drawn 20%/30% rows."""
     e0 = {r: 12 * q for r, q in q_bare.items()}
     e1 = {r: 12 * q for r, q in q_10.items()}
-    t10 = sum(e1.get(r, e0[r] * 0) for r in e1)
+    t10 = sum(e1.values())
     t20, t30 = (sum(drawn[red].get(r, 0) for r in e1) for red in (0.2, 0.3))
     bare = next((c for c in colon if c["design"] == "no bands"), None)
     banded = next((c for c in colon if c["design"] != "no bands"), None)
@@ -281,7 +281,7 @@ def run_study(names: list[str], store: str | Path, out: str | Path, workers: int
         if name not in done:
             done[name] = _jsonable(evaluate(candidate(name), store, workers, progress))
             out.write_text(json.dumps(done, indent=1))
-    previous = previous_default(store, workers, progress)
+    previous = _jsonable(previous_default(store, workers, progress))
     return {"candidates": [done[n] for n in names], "previous": previous}
 
 
@@ -335,7 +335,7 @@ def likelihood_table(study: dict) -> str:
         if c["band_fit"].get("within_1.92"):
             bands += " (within 1.92: " + "; ".join(f"{k} {v}" for k, v in c["band_fit"]["within_1.92"].items()) + ")"
         e10 = c["expected"]["3 x 10%"]
-        e10s = "/".join(f"{e10[str(r)] if str(r) in e10 else e10[r]:.1f}" for r in (40.0, 37.5, 35.0, 32.5, 30.0, 25.0, 20.0))
+        e10s = "/".join(f"{e10[str(r)]:.1f}" for r in (40.0, 37.5, 35.0, 32.5, 30.0, 25.0, 20.0))
         colon = "; ".join(f"{'passed' if x['passed'] else 'stalled'} ({x['peak_pressure_kpa']:.2f})" for x in c["colon"])
         met = sum(bool(v) for v in c["findings"].values())
         lines.append(f"| ({c['candidate']}) {c['label']} | {fr['median']:.3f} [{fr['median_interval'][0]:.3f}, {fr['median_interval'][1]:.3f}] "
@@ -345,8 +345,7 @@ def likelihood_table(study: dict) -> str:
                      f"| {c['wall_s'] / 60:.0f} min |")
     prev = study["previous"]
     lines.append(f"| the engine before the bend model (no variation, nothing fitted) | - | - | none | - | - | "
-                 f"**{prev['loglik_prediction']:.2f}** | " + "/".join(str(prev["counts_10"][str(r)] if str(r) in prev["counts_10"]
-                                                                         else prev["counts_10"][r]) for r in PREDICT_10_RADII)
+                 f"**{prev['loglik_prediction']:.2f}** | " + "/".join(str(prev["counts_10"][str(r)]) for r in PREDICT_10_RADII)
                  + " (40, 37.5, 35, 32.5, 20 mm, run) | - | - | - | - |")
     return "\n".join(lines) + "\n"
 

@@ -339,12 +339,18 @@ class QuasiStaticSim(GrowingTube):
         """Joint stiffness (N m/rad) and wrinkling moments (N m) of every node at pressure ``p`` (Pa)."""
         scale = self._law.effective_modulus(max(p, 0.0)) / self._e_ref * self.cfg.stiffness_factor
         self._k_all = scale / self._c_ref
-        self._mw_all = 0.5 * max(p, 0.0) * math.pi * self._r3
-        if self.cfg.flattening > 0:
-            self._mw_all = self._mw_all * (1.0 - self._flat)
         self._p_applied = p
+        self._mw_all = self._wrinkling_moments()
+
+    def _wrinkling_moments(self) -> np.ndarray:
+        """Wrinkling moment (N m) of every node at the applied pressure, ``p pi r^3 / 2``, less the cross-section's
+        flattening (``flattening``) and times the wall's share left by the axial load (``axial_load``)."""
+        mw = 0.5 * max(self._p_applied, 0.0) * math.pi * self._r3
+        if self.cfg.flattening > 0:
+            mw = mw * (1.0 - self._flat)
         if self.cfg.axial_load:
-            self._mw_all = self._mw_all * self._axial_factors()
+            mw = mw * self._axial_factors()
+        return mw
 
     def _axial_factors(self) -> np.ndarray:
         """Per node, the share of the wall's tension left after the axial load, ``1 - N / (p pi r(s)^2)``
@@ -754,9 +760,8 @@ class QuasiStaticSim(GrowingTube):
         """Outputs and events after an accepted state."""
         if self.cfg.flattening > 0:
             self._flatten()
-        if self.cfg.axial_load:
-            mw0 = 0.5 * max(self._p_applied, 0.0) * math.pi * self._r3
-            self._mw_all = mw0 * (1.0 - self._flat) * self._axial_factors()
+        if self.cfg.axial_load:  # the tip's push of the accepted state, for the next solve
+            self._mw_all = self._wrinkling_moments()
         tc = self.tip_contact
         mag = float(math.hypot(tc[0], tc[1]))
         self._tip_force_norm = mag

@@ -116,21 +116,18 @@ def robot_index(variation: Variation, seed: int | None, rng: np.random.Generator
     return (int(seed) // variation.trials_per_robot) % variation.robots
 
 
-def draw(variation: Variation, robot: int, rng: np.random.Generator, wall_friction: float, tip_friction: float,
-         quasistatic: bool) -> tuple[dict, dict]:
-    """``(SimConfig changes, record)`` of one trial of robot ``robot``: its friction factor from
-    ``rng`` applied to the robot's ``wall_friction`` and ``tip_friction``, and (on the quasi-static
-    engine, which carries them) the robot's stiffness factor and threshold draw."""
+def draw(variation: Variation, robot: int, rng: np.random.Generator, wall_friction: float,
+         tip_friction: float) -> tuple[dict, dict]:
+    """``(SimConfig changes, record)`` of one trial of robot ``robot`` (quasi-static engine fields): its
+    friction factor from ``rng`` applied to the robot's ``wall_friction`` and ``tip_friction``, and the
+    robot's stiffness factor and threshold draw."""
     z_stiff, z_thresh = np.random.default_rng([_ROBOT_STREAM, int(robot)]).standard_normal(2)
     factor = variation.friction_median * math.exp(variation.friction_sigma * float(rng.standard_normal()))
     changes: dict = {"wall_friction": min(wall_friction * factor, 5.0), "tip_friction": min(tip_friction * factor, 5.0)}
-    record = {"robot": int(robot), "friction_factor": factor}
-    if quasistatic:
-        stiff = float(np.clip(1.0 + stiffness_cv() * z_stiff, 0.5, 2.0)) if variation.robot_stiffness else 1.0
-        z_t = float(np.clip(z_thresh, -5.0, 5.0)) if variation.robot_threshold else 0.0
-        changes.update(stiffness_factor=stiff, threshold_z=z_t)
-        record.update(stiffness_factor=stiff, threshold_z=z_t)
-    return changes, record
+    stiff = float(np.clip(1.0 + stiffness_cv() * z_stiff, 0.5, 2.0)) if variation.robot_stiffness else 1.0
+    z_t = float(np.clip(z_thresh, -5.0, 5.0)) if variation.robot_threshold else 0.0
+    changes.update(stiffness_factor=stiff, threshold_z=z_t)
+    return changes, {"robot": int(robot), "friction_factor": factor, "stiffness_factor": stiff, "threshold_z": z_t}
 
 
 @functools.lru_cache(maxsize=1)
