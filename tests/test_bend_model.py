@@ -178,3 +178,39 @@ def test_bench_env_kwargs_are_checked_before_any_build(argv, says, capsys):
     assert main(["bench", "env", *argv]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and says in err[0]
+
+
+def test_the_friction_slip_follows_the_growth_of_each_solve():
+    """IPC's eps_v h per solve: friction_slip_fraction of the solve's growth (of growth_increment_m in place),
+    so static friction's creep per metre of growth is the same at any increment; friction_slip_m fixes it."""
+    from evertgym.design import TubeDesign
+    from evertgym.sim import EversionSim
+
+    sim = EversionSim(TubeDesign(length_m=0.2))
+    assert sim._friction_slip() == pytest.approx(0.01 * sim.cfg.growth_increment_m)  # the first solve: in place
+    sim._grow(2.5e-4)
+    assert sim._friction_slip() == pytest.approx(2.5e-6)
+    fixed = EversionSim(TubeDesign(length_m=0.2), config=SimConfig(friction_slip_m=1e-5))
+    fixed._grow(2.5e-4)
+    assert fixed._friction_slip() == 1e-5
+
+
+@pytest.mark.parametrize("name, value", [("friction_slip_fraction", 0.0), ("friction_slip_fraction", 0.9), ("friction_slip_m", 0.1)])
+def test_bad_friction_slip_names_the_field(name, value):
+    with pytest.raises(ValueError, match=rf"{name} = .* out of range"):
+        SimConfig(**{name: value})
+
+
+@pytest.mark.slow  # about 2 min on 2 cores: 96 U-bend trials
+def test_halving_the_growth_increment_moves_no_bare_cell_by_more_than_one(tmp_path):
+    """The convergence criterion on the bare cells most sensitive to it (40 and 37.5 mm, where the tip slides
+    along the outer wall before it jams): growth increment 1 mm against 0.5 mm, the same trials."""
+    from evertgym.experiments.paper import reproduce_ubend
+
+    counts = []
+    for inc in (0.001, 0.0005):
+        out = reproduce_ubend(tmp_path / f"{inc}.sqlite", workers=2, progress=False, sim={"growth_increment_m": inc},
+                              radii=(40.0, 37.5), reductions=(0.0,))
+        counts.append({r["radius_mm"]: r["successes"] for r in out["rows"]})
+        assert sum(r["unconverged_solves"] for r in out["rows"]) == 0
+    assert all(abs(counts[0][r] - counts[1][r]) <= 1 for r in (40.0, 37.5)), counts

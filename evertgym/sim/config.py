@@ -83,8 +83,11 @@ class SimConfig:
         between two equilibria near a wall; up to a segment in free space), ``solver_tolerance``
         (the largest unbalanced moment and force over ``p pi r^3`` and ``p pi r^2``, ``p`` at
         least 1 kPa), ``barrier_gap_m`` (IPC's d_hat: the contact barrier acts below this gap),
-        ``friction_slip_m`` (IPC's eps_v: tangential travel per increment at which a contact
-        slides), ``friction_lag_iterations`` (re-solves with the normal forces updated),
+        ``friction_slip_fraction`` (IPC's eps_v h: a contact slides once its tangential travel in a solve
+        exceeds this fraction of the solve's growth, of ``growth_increment_m`` for a solve without growth;
+        below it static friction lets it creep, so the creep per metre of growth, not per increment, is
+        fixed, and halving the increment does not add creep), ``friction_slip_m`` (optional: a fixed travel
+        per solve instead, in m, which makes the creep grow as the increment shrinks), ``friction_lag_iterations`` (re-solves with the normal forces updated),
         ``max_newton_iterations`` and ``pressure_increment_fraction`` (the pressure change, as a
         fraction of the last solve's pressure and at least of 1 kPa, after which the body is
         re-solved while it touches a wall or is growing), ``linear_solver`` (how a Newton step's linear
@@ -147,7 +150,8 @@ class SimConfig:
     growth_increment_m: float = 0.001
     solver_tolerance: float = 1e-3
     barrier_gap_m: float = 0.001
-    friction_slip_m: float = 1e-5
+    friction_slip_fraction: float = 0.01
+    friction_slip_m: float | None = None
     friction_lag_iterations: int = 1
     max_newton_iterations: int = 60
     pressure_increment_fraction: float = 0.05
@@ -205,7 +209,9 @@ class SimConfig:
                              f"{MIN_SOLVER_TOLERANCE:g} is the floor: the solver's residuals stall near 1e-6 p pi r^2 in double "
                              "precision, so a smaller tolerance is never reached")
         _check("barrier_gap_m", self.barrier_gap_m, 1e-6, 0.01)
-        _check("friction_slip_m", self.friction_slip_m, 1e-9, 1e-3)
+        _check("friction_slip_fraction", self.friction_slip_fraction, 1e-6, 0.5)
+        if self.friction_slip_m is not None:
+            _check("friction_slip_m", self.friction_slip_m, 1e-9, 1e-3)
         _check("friction_lag_iterations", self.friction_lag_iterations, 0, 20)
         _check("max_newton_iterations", self.max_newton_iterations, 1, 10000)
         _check("pressure_increment_fraction", self.pressure_increment_fraction, 1e-6, 0.5)
@@ -249,7 +255,8 @@ DYNAMIC_ONLY = ("damping", "inertia_factor", "mass_ratio", "iterations", "law_in
                 "rest_speed_m_per_s", "rest_pressure_tol_pa", "force_window_s", "relax_speed_m_per_s", "relax_length_m",
                 "relax_force_n", "max_relax_steps", "dormant_walls", "wall_wake_margin_m", "tail_drag_fraction")
 #: Settings of the quasi-static engine.
-QUASISTATIC_ONLY = ("growth_increment_m", "solver_tolerance", "barrier_gap_m", "friction_slip_m", "friction_lag_iterations",
+QUASISTATIC_ONLY = ("growth_increment_m", "solver_tolerance", "barrier_gap_m", "friction_slip_fraction", "friction_slip_m",
+                    "friction_lag_iterations",
                     "max_newton_iterations", "pressure_increment_fraction", "linear_solver", "band_fold", "fold_pinch_per_rad",
                     "band_eversion_threshold", "flattening", "axial_load", "band_hinge_relief", "band_hinge_reach_m",
                     "stiffness_factor", "threshold_z")

@@ -308,6 +308,7 @@ class QuasiStaticSim(GrowingTube):
         self._contact_segs: set[int] = set()
         self.active_start = 0
         self._tip_clearance = math.inf
+        self._grown = 0.0  # growth (m) the next solve follows (0: a solve in place), for its friction slip
         self._rejoin: tuple[int, int] | None = None  # (joint, solves since) of the last widening
         # barrier stiffness: 0.1 x the largest drive (8 kPa pi r^2) per barrier gap (N/m)
         self._kappa = 0.1 * 8000.0 * math.pi * design.radius_m**2 / cfg.barrier_gap_m
@@ -693,10 +694,21 @@ class QuasiStaticSim(GrowingTube):
             self._restore(best)
         self._req_ahead = req_hi
 
+    def _friction_slip(self) -> float:
+        """The tangential travel (m) past which a contact slides in the next solve (IPC's ``eps_v h``):
+        ``friction_slip_fraction`` of the growth the solve follows (of ``growth_increment_m`` for a solve
+        in place), so that static friction's creep per metre of growth does not depend on the
+        increment; ``friction_slip_m`` instead if it is set."""
+        cfg = self.cfg
+        if cfg.friction_slip_m is not None:
+            return cfg.friction_slip_m
+        return cfg.friction_slip_fraction * (self._grown if self._grown > 0 else cfg.growth_increment_m)
+
     def _solve_in_place(self) -> None:
         """Solve the body where it stands (a pressure change, a cut-back to an increment's start).
         A state that overlaps a wall cannot be solved: each such solve is counted as failed and
         recorded as a ``solve_failed`` event (status ``INFEASIBLE_START``), never skipped silently."""
+        self._grown = 0.0
         if not self._solve():
             self._count_failed(qk.INFEASIBLE_START)
 
@@ -711,6 +723,7 @@ class QuasiStaticSim(GrowingTube):
         follows its newest material, widening at most halfway into its clearance.  False if the
         grown tip would overlap a wall."""
         ds = self.ds
+        self._grown = min(dl, self.design.length_m - self.length)
         self.length = min(self.length + dl, self.design.length_m)
         j = len(self.seg_len) - 1
         seg = self.length - self.nodes[j]
@@ -911,7 +924,7 @@ class QuasiStaticSim(GrowingTube):
             (status, it, res_m, res_f, e_s, e_w, e_wl, e_t, e_ml, acc_f, acc_m, tip, rows) = qk.solve_increment(
                 theta0, n0, phi, phi_ref, seg_len, seg_rad, s_nodes, k_j, mw_j, *_LAW[:3], _LAW[3], RESIDUAL_STIFFNESS_FRACTION,
                 wa, wb, wpiece, w_vertex, w_radius, w_friction, robot_mu, pc0, u, kaa, fh,
-                travel, k_travel, f_s, f_w, f_wl, f_t, f_ml, cfg.barrier_gap_m, self._kappa, cfg.friction_slip_m, tol_m,
+                travel, k_travel, f_s, f_w, f_wl, f_t, f_ml, cfg.barrier_gap_m, self._kappa, self._friction_slip(), tol_m,
                 tol_f, budget, _MAX_MOVE_M, cfg.friction_lag_iterations,
                 cfg.linear_solver == "semiseparable")
             iters += it
