@@ -19,10 +19,13 @@ from evertgym.limits import MAX_EVENTS
 from evertgym.model.eversion import EversionThreshold, VariedThreshold
 from evertgym.model.params import ModelParams
 from evertgym.model.pressure import InflatedBeamLaw
-from evertgym.sim.config import SimConfig
+from evertgym.sim.config import _STEP_OVERHEAD_PASSES, MAX_DYNAMIC_WORK_PER_S, SimConfig, check_buildable, dynamic_work_per_s
 from evertgym.sim.events import SimEvent
 from evertgym.sim.growth import GrowthLaw, PressureRegulator
 from evertgym.sim.material import material_tables
+
+# (check_buildable and the dynamic engine's work bound are the settings' checks, in evertgym.sim.config)
+__all__ = ["MAX_DYNAMIC_WORK_PER_S", "GrowingTube", "check_buildable", "dynamic_work_per_s", "relax_step_budget"]
 
 
 class GrowingTube:
@@ -152,27 +155,9 @@ class GrowingTube:
         return self._in_contact
 
 
-#: The most work (segment passes, :func:`dynamic_work_per_s`) per simulated second the dynamic engine accepts:
-#: about 185 times its default on a 0.9 m body (5.4e6).  Measured on 2 shared cores (docs/robustness.md): 27
-#: passes per 1e-5 s step on 1 mm segments, never frozen (9.6e9), took 4 s per 0.1 s env step on average and 45 s
-#: for the worst one (the body in the bend's contacts); at this bound the worst step stays well under 10 s.
-MAX_DYNAMIC_WORK_PER_S = 1e9
-#: A pymunk step's own cost per body (collision detection, the Python loop), in constraint passes.
-_STEP_OVERHEAD_PASSES = 80
-
-
 #: Relaxation work (segment passes) one dynamic step call may spend beyond :data:`MAX_DYNAMIC_WORK_PER_S` over its
 #: simulated time: a single 2 ms step of a 0.9 m body may relax for about 900 steps.
 _RELAX_WORK_MIN = 1e7
-
-
-def dynamic_work_per_s(design: TubeDesign, cfg: SimConfig) -> float:
-    """An upper bound of the dynamic engine's stepping work per simulated second, in segment passes: every
-    segment of the body active, ``iterations`` constraint passes plus the step's own cost
-    (:data:`_STEP_OVERHEAD_PASSES`) per step of ``dt_s``.  Relaxation (section law) is bounded at run time
-    (:func:`relax_step_budget`)."""
-    segments = design.length_m / cfg.segment_length_m
-    return (cfg.iterations + _STEP_OVERHEAD_PASSES) * segments / cfg.dt_s
 
 
 def relax_step_budget(design: TubeDesign, cfg: SimConfig, n_steps: int) -> float:
@@ -181,30 +166,6 @@ def relax_step_budget(design: TubeDesign, cfg: SimConfig, n_steps: int) -> float
     take: 50 per growth step at most)."""
     per_step = (cfg.iterations + _STEP_OVERHEAD_PASSES) * design.length_m / cfg.segment_length_m
     return (MAX_DYNAMIC_WORK_PER_S * n_steps * cfg.dt_s + _RELAX_WORK_MIN) / per_step
-
-
-def check_buildable(design: TubeDesign, cfg: SimConfig, scene=None) -> None:
-    """Raise ``ValueError`` naming the field unless the simulator can build ``design`` with
-    ``cfg`` in ``scene``: the body must hold the initial chain, the dynamic engine's work per simulated
-    second is bounded (:data:`MAX_DYNAMIC_WORK_PER_S`), and the robot's diameter may not exceed the
-    scene's narrowest lumen."""
-    need = cfg.initial_length_m
-    if design.length_m < need - 1e-12:
-        raise ValueError(f"length_m = {design.length_m:g} is out of range: allowed >= {need:g} m "
-                         "(the simulator's initial_length_m)")
-    if cfg.engine == "dynamic":
-        work = dynamic_work_per_s(design, cfg)
-        if work > MAX_DYNAMIC_WORK_PER_S:
-            raise ValueError(
-                f"dt_s = {cfg.dt_s:g}, iterations = {cfg.iterations}, segment_length_m = {cfg.segment_length_m:g}"
-                f" on a {design.length_m:g} m body ask the dynamic engine for {work:.3g} segment passes per simulated second: "
-                f"out of range, allowed at most {MAX_DYNAMIC_WORK_PER_S:.0e} (the defaults ask "
-                f"{dynamic_work_per_s(design, type(cfg)(engine='dynamic')):.2g}; beyond it one 0.1 s env step runs for seconds): "
-                "raise dt_s or segment_length_m, or lower iterations")
-    lumen = getattr(scene, "lumen_width", None)
-    if lumen is not None and len(lumen) and design.diameter_m > float(np.min(lumen)) + 1e-9:
-        raise ValueError(f"diameter_m = {design.diameter_m:g} is out of range: allowed up to the scene's narrowest "
-                         f"lumen, {float(np.min(lumen)):g} m (the robot must fit the channel)")
 
 
 @nb.njit(cache=True, nogil=True)
