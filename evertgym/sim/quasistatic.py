@@ -57,6 +57,7 @@ from evertgym.sim.band_laws import axial_share, band_fold_pressure, flattening, 
 from evertgym.sim.config import SimConfig
 from evertgym.sim.discretize import RESIDUAL_STIFFNESS_FRACTION
 from evertgym.sim.events import SimEvent
+from evertgym.sim.growth import MAX_PRESSURE_PA
 from evertgym.sim.tube import GrowingTube, check_buildable
 
 #: Pressure (Pa) below which the solver's force scale stops shrinking (a limp tube).
@@ -93,6 +94,25 @@ _ESCALATION = 20
 _WORK_MIN = 50_000
 _WORK_PER_S = 2_000_000
 _SOLVE_WORK = 40
+#: Barrier stiffness (N/m) as a fraction of the largest drive, the regulator's top pressure times ``pi r^2``
+#: (:data:`~evertgym.sim.growth.MAX_PRESSURE_PA`), per barrier gap: the contact barrier scales with the largest
+#: force the robot can push with, at every radius and every ``barrier_gap_m``.
+_BARRIER_DRIVE_FRACTION = 0.1
+#: A compliant piece's rotation spring (N m/rad) as a multiple of its stiffest translational stiffness times its
+#: length squared: the wall model lets a piece translate only, so its rotation is held by a spring far stiffer
+#: than its translation, finite to keep the piece's block of the Hessian invertible.
+_PIECE_ROTATION_STIFFNESS = 1e3
+#: The tether stop (the compliant wall's travel limit) as a multiple of the stiffest piece's own translational
+#: stiffness: two orders stiffer, so the stop, not the piece's springs, carries a push past the travel; a
+#: numerical stop (a piece's overshoot is reported, not hidden).
+_TRAVEL_STOP_STIFFNESS = 100.0
+#: Slack (m) of a compliant piece's bounding box beyond its travel: the box is drawn around the piece at rest,
+#: and a displaced piece must stay inside it for the wall query to find it.
+_PIECE_BOX_MARGIN_M = 0.005
+#: Widenings of one solve's window (at most): a held joint found out of balance after a solve rejoins it (the
+#: window then starts at the most proximal one) and the window is solved again; a bound on the passes
+#: (:meth:`QuasiStaticSim._solve`).
+_WIDENINGS = 6
 #: Root-finding steps (at most) that cut an increment back to the length where the drive balances the wall.
 _BISECTIONS = 10
 #: Largest change of the tip's reaction against growth over one increment, as a fraction of p pi r^2.
@@ -238,7 +258,7 @@ class QuasiStaticSim(GrowingTube):
             pos = np.array([tuple(b.position) for b in self._piece_bodies], float)
             moving = w.piece >= 0
             ends = [np.where(moving[:, None], e + pos[np.maximum(w.piece, 0)], e) for e in ends]
-        grow = (w.radius + (travel + 0.005) * (w.piece >= 0))[:, None]  # a piece's box covers its travel
+        grow = (w.radius + (travel + _PIECE_BOX_MARGIN_M) * (w.piece >= 0))[:, None]  # a piece's box covers its travel
         self._feature_boxes = (np.minimum(*ends) - grow, np.maximum(*ends) + grow)
         n_p = len(self._piece_bodies)
         self._pc0 = np.array([tuple(b.position) for b in self._piece_bodies], float).reshape(-1, 2)
@@ -254,10 +274,10 @@ class QuasiStaticSim(GrowingTube):
             for i in range(n_p):
                 k2 = np.linalg.inv(comp[3 * i:3 * i + 2, 3 * i:3 * i + 2])
                 self._k_piece[i, :2, :2] = 0.5 * (k2 + k2.T)
-                self._k_piece[i, 2, 2] = 1e3 * float(np.max(k2)) * net.mechanics.piece_length_m**2
+                self._k_piece[i, 2, 2] = _PIECE_ROTATION_STIFFNESS * float(np.max(k2)) * net.mechanics.piece_length_m**2
         self._travel = travel
-        # the tether stop: 100 x the stiffest piece's own springs (a numerical stop, reported)
-        self._k_travel = 100.0 * float(np.max(self._k_piece[:, :2, :2])) if n_p else 0.0
+        # the tether stop: stiffer than the stiffest piece's own springs (a numerical stop, reported)
+        self._k_travel = _TRAVEL_STOP_STIFFNESS * float(np.max(self._k_piece[:, :2, :2])) if n_p else 0.0
 
         # the body's state: per segment its joint rotation (joint j against segment j - 1; joint 0
         # against the clamp), length and collision radius
@@ -309,8 +329,8 @@ class QuasiStaticSim(GrowingTube):
         self.active_start = 0
         self._tip_clearance = math.inf
         self._rejoin: tuple[int, int] | None = None  # (joint, solves since) of the last widening
-        # barrier stiffness: 0.1 x the largest drive (8 kPa pi r^2) per barrier gap (N/m)
-        self._kappa = 0.1 * 8000.0 * math.pi * design.radius_m**2 / cfg.barrier_gap_m
+        # barrier stiffness (N/m): a fraction of the largest drive (the regulator's top pressure times pi r^2) per barrier gap
+        self._kappa = _BARRIER_DRIVE_FRACTION * MAX_PRESSURE_PA * math.pi * design.radius_m**2 / cfg.barrier_gap_m
         self._flat = np.zeros(len(self.nodes))  # per joint: the cross-section's flattening f (band_laws.flattening)
         self._tip_mu = cfg.tip_friction  # the tip's friction coefficient now (band_hinge_relief lowers it)
         # per band: the joints inside its strip and its centre (m), for the band-hinge law
@@ -831,7 +851,7 @@ class QuasiStaticSim(GrowingTube):
         f_ref, m_ref = self._scales()
         tol_m, tol_f = self.cfg.solver_tolerance * m_ref, self.cfg.solver_tolerance * f_ref
         a = self._window_start()
-        for _ in range(6):  # a held joint out of balance widens the window
+        for _ in range(_WIDENINGS):  # a held joint out of balance widens the window
             if not self._solve_window(a, tol_m, tol_f):
                 return False
             if self._retry_wanted:
