@@ -84,12 +84,12 @@ class SimConfig:
         ``tail_drag_fraction`` (the share of the bare eversion threshold that is the tail's drag at the
         base), the force window and the relaxation below apply.  ``force_window_s``: the tip's wall force
         is its impulse over this window divided by the window (a quasi-static force, the same for any step;
-        :meth:`EversionSim._tip_reaction`).  After each growth increment the chain is stepped, without
+        :meth:`DynamicSim._tip_reaction`).  After each growth increment the chain is stepped, without
         advancing time, until its active segments within ``relax_length_m`` of the tip move slower than
         ``relax_speed_m_per_s`` (at most ``max_relax_steps`` steps; 0 m/s disables it); with
         ``relax_force_n`` > 0 the criterion is instead the unbalanced force the motion implies (``m g
         |v|``, ``I g |w| / ds``).  Neither yet makes outcomes independent of the scaled masses
-        (docs/sim.md) (:meth:`EversionSim._relax`).
+        (docs/sim.md) (:meth:`DynamicSim._relax`).
 
     Quasi-static engine: the solver
         ``growth_increment_m`` (the largest growth between two equilibria near a wall; up to a segment in

@@ -47,18 +47,13 @@ import numpy as np
 import pymunk
 
 from evertgym._blas import one_blas_thread
-from evertgym.design import TubeDesign
-from evertgym.model.eversion import EversionThreshold, tail_weight_pressure
-from evertgym.model.params import ModelParams, load_params
 from evertgym.model.pressure import _END_SLOPE, KINK_MOMENT_FRACTION, wrinkled_moment_fraction
 from evertgym.scenes.scene import Scene
 from evertgym.sim import qs_kernel as qk
 from evertgym.sim.band_laws import axial_share, band_fold_pressure, flattening, fold_excess, hinged_band_near_tip
-from evertgym.sim.config import SimConfig
 from evertgym.sim.discretize import RESIDUAL_STIFFNESS_FRACTION
-from evertgym.sim.events import SimEvent
 from evertgym.sim.growth import MAX_PRESSURE_PA
-from evertgym.sim.tube import GrowingTube, check_buildable
+from evertgym.sim.tube import EversionSim
 
 #: Pressure (Pa) below which the solver's force scale stops shrinking (a limp tube).
 _P_SCALE_FLOOR = 1000.0
@@ -206,45 +201,28 @@ class SolveStats:
                 "solve_budget_cuts": self.budget_cuts}
 
 
-class QuasiStaticSim(GrowingTube):
-    """A growing eversion robot as a sequence of static equilibria (see the module docstring).
-
-    The constructor and the public interface are :class:`~evertgym.sim.simulator.EversionSim`'s
-    (``step``, ``run``, ``set_pressure_command``, ``centreline``, ``tip_position``, ...), so an
-    environment, a trial or a script runs either engine; ``SimConfig(engine=...)`` picks one.
+class QuasiStaticSim(EversionSim):
+    """The quasi-static engine (the default): a growing eversion robot as a sequence of static equilibria
+    (the module's docstring), built by ``EversionSim(design, scene, config)`` with ``config.engine`` left at
+    ``"quasistatic"``; the parameters and the interface are :class:`~evertgym.sim.tube.EversionSim`'s.
     """
 
     engine = "quasistatic"
 
-    def __init__(
-        self,
-        design: TubeDesign,
-        scene=None,
-        config: SimConfig | None = None,
-        base: tuple[float, float] | None = None,
-        direction: tuple[float, float] | None = None,
-        vertical_tail: bool = False,
-        threshold: EversionThreshold | None = None,
-        params: ModelParams | None = None,
-    ):
-        self.design = design
-        self.cfg = cfg = config or SimConfig()
-        check_buildable(design, cfg, scene)
-        self.params = params or load_params()
+    def _build_scene(self, scene):
+        """The scene's walls in a pymunk space that is never stepped: their shapes are read once
+        (:func:`_read_walls`) and the compliant pieces' bodies show the solved displacements; the scene builds
+        neither the pieces' springs and tethers nor their scaled masses (``dynamics=False``; an own scene class
+        keeps the scenes' protocol, ``build(space)``)."""
         self.space = pymunk.Space()
-        self.scene = scene
-        # the engine never steps the space: its compliant wall needs no scaled masses (an own scene class
-        # keeps the scenes' protocol, ``build(space, dt=None)``)
         if scene is None:
-            self.scene_handles = None
-        elif isinstance(scene, Scene):
-            self.scene_handles = scene.build(self.space, dynamics=False)
-        else:
-            self.scene_handles = scene.build(self.space)
-        self._place_base(scene, base, direction)
+            return None
+        if isinstance(scene, Scene):
+            return scene.build(self.space, dynamics=False)
+        return scene.build(self.space)
 
-        self._init_tube(design, cfg, threshold, vertical_tail)
-
+    def _build_body(self) -> None:
+        cfg, design = self.cfg, self.design
         # walls: arrays for the kernel; the compliant wall's pieces and linear springs
         handles = self.scene_handles
         self._piece_bodies: list[pymunk.Body] = list(getattr(handles, "bodies", []) or [])
@@ -289,28 +267,9 @@ class QuasiStaticSim(GrowingTube):
         self._req_key: tuple[float, float, float, float] | None = None
         self.seg_len = np.zeros(0)  # m
         self.seg_rad = np.zeros(0)  # m
-        self.length = 0.0
         self._start_chain(cfg.initial_length_m)
 
-        # clock, outputs, events
-        self.t = 0.0
-        self.steps = 0
-        self.events: list[SimEvent] = []
-        self.event_counts: dict[str, int] = {}
-        self._bands_reached: set[int] = set()
-        self._kinked: set[int] = set()
-        self._stall_clock = 0.0
-        self._stalled = False
-        self.stall_count = 0
-        self.growth_speed = 0.0
-        self.tip_force = 0.0
-        self.tip_contact = np.zeros(2)
-        self._tip_force_norm = 0.0
-        self._in_contact = False
-        self.max_contact_force = 0.0
-        self.peak_pressure = 0.0
-        self._step_mean_pressure = 0.0
-        self._step_max_contact = 0.0
+        # the growth and the solves (the clock, outputs and events are EversionSim's)
         self._pending = 0.0
         self._p_solved = -1.0
         # the tip's required pressure (Pa) just past where the last growth attempt stopped short (0: it
@@ -326,7 +285,6 @@ class QuasiStaticSim(GrowingTube):
         self._seg_force = np.zeros((0, 2))  # per segment: sum of wall forces (N), sum of p x f (N m)
         self._seg_moment = np.zeros(0)
         self._contact_segs: set[int] = set()
-        self.active_start = 0
         self._tip_clearance = math.inf
         self._rejoin: tuple[int, int] | None = None  # (joint, solves since) of the last widening
         # barrier stiffness (N/m): a fraction of the largest drive (the regulator's top pressure times pi r^2) per barrier gap
@@ -407,11 +365,6 @@ class QuasiStaticSim(GrowingTube):
         """Heading of the tip segment (rad)."""
         return self.base_angle + float(np.sum(self.phi))
 
-    @property
-    def tip_direction(self) -> np.ndarray:
-        a = self.tip_angle
-        return np.array([math.cos(a), math.sin(a)])
-
     def joint_angles(self, start: int = 0) -> np.ndarray:
         return self.phi[start:].copy()
 
@@ -423,10 +376,6 @@ class QuasiStaticSim(GrowingTube):
 
     def collapse_moments(self, start: int = 0) -> np.ndarray:
         return 2.0 * self._mw_all[start : len(self.phi)]
-
-    @property
-    def kinked_joints(self) -> list[int]:
-        return sorted(self._kinked)
 
     @property
     def wall_tension(self) -> np.ndarray:
@@ -488,8 +437,7 @@ class QuasiStaticSim(GrowingTube):
         """The growth law's tip terms: the threshold (Pa) and area (m^2) of the material at the tip
         (the bare material's without ``band_eversion_threshold``), and the tail's weight (Pa)."""
         p_y, area = self._tip_threshold() if self.cfg.band_eversion_threshold else self._bare_threshold
-        tail = tail_weight_pressure(self.design.diameter_m, self.design.wall_thickness_m, self.length) if self.vertical_tail else 0.0
-        return p_y, area, tail
+        return p_y, area, self._tail_weight()
 
     def _folding_bands(self) -> list[tuple[float, float]]:
         """With ``band_fold``: each wholly everted band's radius (m) and the tail's tension at it (N),
@@ -784,26 +732,12 @@ class QuasiStaticSim(GrowingTube):
             self._mw_all = self._wrinkling_moments()
         tc = self.tip_contact
         mag = float(math.hypot(tc[0], tc[1]))
-        self._tip_force_norm = mag
-        self.max_contact_force = max(self.max_contact_force, mag)
-        touching = (len(self.seg_len) - 1) in self._contact_segs
-        if touching and not self._in_contact:
-            self._event("contact", force_n=round(mag, 6))
-        self._in_contact = touching
-        for i, start, reduction in self._band_starts:
-            if self.length >= start and i not in self._bands_reached:
-                self._bands_reached.add(i)
-                self._event("band_at_tip", band=i, reduction=reduction)
+        self._contact_update(mag, (len(self.seg_len) - 1) in self._contact_segs)
+        self._band_events()
         n = len(self.phi)
         moments, kinked = qk.kinked_joints(self.phi, self._k_all[:n], self._mw_all[:n], *_LAW[:3], _LAW[3], RESIDUAL_STIFFNESS_FRACTION,
                                            KINK_MOMENT_FRACTION)
-        for j in kinked:
-            if int(j) not in self._kinked:
-                self._kinked.add(int(j))
-                self._event("kink", joint_mm=round(float(self.nodes[j]) * 1e3, 3), at_band=bool(self._r3[j] < 0.999 * self.design.radius_m**3))
-        if self._kinked:
-            mc = 2.0 * self._mw_all[:n]
-            self._kinked = {j for j in self._kinked if abs(moments[j]) >= 0.8 * KINK_MOMENT_FRACTION * mc[j]}
+        self._kink_events(kinked, moments, 2.0 * self._mw_all[:n])
         if self.cfg.band_hinge_relief > 0:
             hinged = hinged_band_near_tip(moments, self._mw_all[:n], self._band_joints, self._band_centres, self.length,
                                           self.cfg.band_hinge_reach_m)
