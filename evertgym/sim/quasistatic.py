@@ -52,7 +52,6 @@ from evertgym.scenes.scene import Scene
 from evertgym.sim import qs_kernel as qk
 from evertgym.sim.band_laws import axial_share, band_fold_pressure, flattening, fold_excess, hinged_band_near_tip
 from evertgym.sim.discretize import RESIDUAL_STIFFNESS_FRACTION
-from evertgym.sim.growth import MAX_PRESSURE_PA
 from evertgym.sim.tube import EversionSim
 
 #: Pressure (Pa) below which the solver's force scale stops shrinking (a limp tube).
@@ -89,10 +88,6 @@ _ESCALATION = 20
 _WORK_MIN = 50_000
 _WORK_PER_S = 2_000_000
 _SOLVE_WORK = 40
-#: Barrier stiffness (N/m) as a fraction of the largest drive, the regulator's top pressure times ``pi r^2``
-#: (:data:`~evertgym.sim.growth.MAX_PRESSURE_PA`), per barrier gap: the contact barrier scales with the largest
-#: force the robot can push with, at every radius and every ``barrier_gap_m``.
-_BARRIER_DRIVE_FRACTION = 0.1
 #: A compliant piece's rotation spring (N m/rad) as a multiple of its stiffest translational stiffness times its
 #: length squared: the wall model lets a piece translate only, so its rotation is held by a spring far stiffer
 #: than its translation, finite to keep the piece's block of the Hessian invertible.
@@ -287,8 +282,8 @@ class QuasiStaticSim(EversionSim):
         self._contact_segs: set[int] = set()
         self._tip_clearance = math.inf
         self._rejoin: tuple[int, int] | None = None  # (joint, solves since) of the last widening
-        # barrier stiffness (N/m): a fraction of the largest drive (the regulator's top pressure times pi r^2) per barrier gap
-        self._kappa = _BARRIER_DRIVE_FRACTION * MAX_PRESSURE_PA * math.pi * design.radius_m**2 / cfg.barrier_gap_m
+        # barrier stiffness: 0.1 x the largest drive (8 kPa pi r^2) per barrier gap (N/m)
+        self._kappa = 0.1 * 8000.0 * math.pi * design.radius_m**2 / cfg.barrier_gap_m
         self._flat = np.zeros(len(self.nodes))  # per joint: the cross-section's flattening f (band_laws.flattening)
         self._tip_mu = cfg.tip_friction  # the tip's friction coefficient now (band_hinge_relief lowers it)
         # per band: the joints inside its strip and its centre (m), for the band-hinge law
