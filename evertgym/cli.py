@@ -341,32 +341,14 @@ def cmd_bench_env(args: argparse.Namespace) -> int:
 
 
 def sim_overrides(text: str | None, extra: dict | None = None) -> dict:
-    """``--sim`` JSON: SimConfig fields, checked (names, ranges, the engine they belong to) before work starts;
-    ``extra`` fields are added.  Raises :class:`CLIError` (a one-line ``ValueError``).  Scripts parse their
-    own ``--sim`` with it."""
+    """``--sim`` JSON: SimConfig fields, checked before work starts (:func:`evertgym.sim.config.parse_sim`);
+    ``extra`` fields are added.  Raises :class:`CLIError`, ``--sim: `` and parse_sim's one line."""
+    from evertgym.sim.config import parse_sim
+
     try:
-        sim = json.loads(text) if text else {}
-    except (json.JSONDecodeError, TypeError, ValueError) as e:
-        raise CLIError(f"--sim = {text!r:.80}: expected a JSON object of SimConfig fields ({e})") from None
-    if not isinstance(sim, dict):
-        raise CLIError(f"--sim = {text!r:.80}: expected a JSON object of SimConfig fields, e.g. '{{\"engine\": \"dynamic\"}}', "
-                       f"got a JSON {type(sim).__name__}")
-    from dataclasses import fields
-
-    from evertgym.sim.config import SimConfig
-
-    unknown = sorted(set(sim) - {f.name for f in fields(SimConfig)})
-    if unknown:
-        raise CLIError(f"--sim: unknown SimConfig fields {unknown}")
-    sim.update(extra or {})
-    try:
-        from evertgym.design import TubeDesign
-        from evertgym.sim.tube import check_buildable
-
-        check_buildable(TubeDesign(length_m=0.9), SimConfig(**sim))  # (the paper's 0.9 m body: the dynamic engine's work)
-    except (TypeError, ValueError) as e:
+        return parse_sim(text, extra)
+    except ValueError as e:
         raise CLIError(f"--sim: {e}") from None
-    return sim
 
 
 _sim_overrides = sim_overrides

@@ -228,12 +228,12 @@ def main(argv: list[str] | None = None) -> dict:
         ap.error("--steps must be in [1, 100000] and --repeats in [1, 20]")
     ids = args.env or ["evertgym/UBend-v0", "evertgym/Colon-v0"]
     if args.setting:
-        from evertgym.cli import CLIError, sim_overrides
+        from evertgym.sim.config import parse_sim
 
         try:
-            settings = [sim_overrides(text, {"engine": "quasistatic"}) for text in args.setting]
-        except CLIError as e:
-            ap.error(str(e).replace("--sim", "--setting"))
+            settings = [{**parse_sim(text, engine="quasistatic"), "engine": "quasistatic"} for text in args.setting]
+        except ValueError as e:
+            ap.exit(2, f"--setting: {e}\n")
         out = {"steps": args.steps, "repeats": args.repeats, "rows": compare_settings(ids, settings, args.steps, args.repeats)}
         if args.json:
             print(json.dumps(out, indent=1))

@@ -90,15 +90,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--sim", default="", help="SimConfig fields as JSON for the quasi-static runs (the dynamic ones run "
                     "their defaults), e.g. '{\"linear_solver\": \"dense\"}'")
     args = ap.parse_args(argv)
-    sim: dict = {}
-    if args.sim:
-        from evertgym.sim.config import quasistatic_overrides
+    from evertgym.sim.config import parse_sim
 
-        try:
-            sim = quasistatic_overrides(args.sim)
-        except (ValueError, TypeError) as e:
-            print(f"--sim = {args.sim!r} is not allowed: {e}", file=sys.stderr)
-            return 2
+    try:
+        sim = parse_sim(args.sim, engine="quasistatic")
+    except ValueError as e:
+        print(f"--sim: {e}", file=sys.stderr)
+        return 2
     before = None
     if args.against:
         try:

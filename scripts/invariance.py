@@ -36,7 +36,7 @@ from evertgym.experiments.invariance import (  # noqa: E402
     ubend_table,
 )
 from evertgym.experiments.paper import UBEND_RADII_MM  # noqa: E402
-from evertgym.sim import SimConfig  # noqa: E402
+from evertgym.sim.config import parse_sim  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> dict:
@@ -64,14 +64,9 @@ def main(argv: list[str] | None = None) -> dict:
     settings = tuple(s for i, s in enumerate(all_settings) if i == 0 or not wanted or s[0] in wanted)
     if args.sim:
         try:
-            base = json.loads(args.sim)
-            if not isinstance(base, dict):
-                raise ValueError("not a JSON object")
-            settings = tuple((name, {**base, **sim}) for name, sim in settings)
-            for _, sim in settings:
-                SimConfig(**sim)
-        except (ValueError, TypeError) as e:
-            ap.exit(2, f"--sim = {args.sim!r} is not allowed: {e}\n")
+            settings = tuple((name, parse_sim(args.sim, sim)) for name, sim in settings)
+        except ValueError as e:
+            ap.exit(2, f"--sim: {e}\n")
     t0 = time.perf_counter()
     result = run_invariance(args.out, trials=args.trials, episodes=args.episodes, radii=radii, settings=settings,
                             workers=args.workers, progress=args.progress, criteria=criteria)

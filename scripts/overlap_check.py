@@ -79,13 +79,13 @@ def main(argv: list[str] | None = None) -> dict:
     args = ap.parse_args(argv)
     if not 1 <= args.steps <= 100000:
         ap.error(f"--steps = {args.steps} is out of range: allowed [1, 100000]")
-    from evertgym.cli import CLIError, sim_overrides
+    from evertgym.sim.config import parse_sim
 
     try:
-        sim = sim_overrides(args.sim, {"engine": "quasistatic"})
-    except CLIError as e:
-        ap.error(str(e))
-    sim.pop("engine")
+        sim = parse_sim(args.sim, engine="quasistatic")
+    except ValueError as e:
+        ap.exit(2, f"--sim: {e}\n")
+    sim.pop("engine", None)
     out = check(args.env, args.steps, args.seed, sim)
     if args.json:
         print(json.dumps(out, indent=1))

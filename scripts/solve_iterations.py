@@ -74,15 +74,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--sim", default="", help="quasi-static SimConfig fields as JSON, e.g. '{\"linear_solver\": \"dense\"}' "
                     "(the solver the docs' tables of 2026-12-05 were made with)")
     args = ap.parse_args(argv)
-    sim: dict = {}
-    if args.sim:
-        from evertgym.sim.config import quasistatic_overrides
+    from evertgym.sim.config import parse_sim
 
-        try:
-            sim = quasistatic_overrides(args.sim)
-        except (ValueError, TypeError) as e:
-            print(f"--sim = {args.sim!r} is not allowed: {e}", file=sys.stderr)
-            return 2
+    try:
+        sim = parse_sim(args.sim, engine="quasistatic")
+    except ValueError as e:
+        print(f"--sim: {e}", file=sys.stderr)
+        return 2
     if args.steps < 0:
         print(f"--steps = {args.steps} is out of range: allowed 1 or more (0: the default)", file=sys.stderr)
         return 2

@@ -92,11 +92,12 @@ def test_two_stores_are_compared_trial_by_trial(tmp_path, capsys):
 def test_sim_fields_reach_the_quasistatic_runs_and_bad_ones_get_one_line(capsys):
     """``--sim``: the default is the O(m) solver (its digest equals ``linear_solver="semiseparable"``'s); the dense
     solver's answers differ from it in the last bits once the body touches the bend (40 U-bend steps); a field that
-    is unknown, foreign to the quasi-static engine or ``engine`` itself is refused in one line, before any run."""
+    is unknown, foreign to the quasi-static engine or another engine is refused in one line, before any run."""
     default = digest_script.digest("evertgym/UBend-v0", "quasistatic", 40)
     assert default == digest_script.digest("evertgym/UBend-v0", "quasistatic", 40, {"linear_solver": "semiseparable"})
     assert default != digest_script.digest("evertgym/UBend-v0", "quasistatic", 40, {"linear_solver": "dense"})
-    for bad, says in (('{"nope": 1}', "unknown SimConfig fields ['nope']"), ('{"engine": "dynamic"}', "engine left out"),
+    for bad, says in (('{"nope": 1}', "--sim: nope = 1 is not a SimConfig field"),
+                      ('{"engine": "dynamic"}', "--sim: engine = 'dynamic' is out of range here: allowed 'quasistatic'"),
                       ('{"mass_ratio": 0.1}', "means nothing to engine 'quasistatic'")):
         assert digest_script.main(["--sim", bad]) == 2
         err = capsys.readouterr().err

@@ -180,10 +180,10 @@ def test_the_script_puts_sim_fields_under_every_setting_and_refuses_bad_ones_in_
     spec = importlib.util.spec_from_file_location("invariance_script", Path(__file__).parents[1] / "scripts" / "invariance.py")
     script = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(script)
-    for sim, says in (('{"linear_solver": "lu"}', "linear_solver = 'lu' is out of range"), ("[1]", "not a JSON object"),
+    for sim, says in (('{"linear_solver": "lu"}', "linear_solver = 'lu' is out of range"), ("[1]", "is a JSON array"),
                       ('{"bogus": 1}', "bogus")):
         with pytest.raises(SystemExit) as e:
             script.main(["--engine", "quasistatic", "--sim", sim])
         assert e.value.code == 2
         err = capsys.readouterr().err.strip().splitlines()
-        assert len(err) == 1 and err[0].startswith(f"--sim = {sim!r} is not allowed") and says in err[0]
+        assert len(err) == 1 and err[0].startswith("--sim: ") and says in err[0]

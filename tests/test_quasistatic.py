@@ -33,7 +33,7 @@ def test_the_engine_switch_builds_the_quasistatic_engine():
     (dict(engine="dynamic", growth_increment_m=0.0005), "growth_increment_m = 0.0005 means nothing to engine 'dynamic'"),
     (dict(engine="quasistatic", growth_increment_m=0.02), "growth_increment_m = 0.02 is out of range"),
     (dict(engine="quasistatic", solver_tolerance=0.0), "solver_tolerance = 0.0 is out of range"),
-    (dict(engine="quasistatic", section_law=True), "section_law = True is out of range for engine 'quasistatic'"),
+    (dict(engine="quasistatic", section_law=True), "section_law = True means nothing to engine 'quasistatic'"),
     (dict(engine="quasistatic", pressure_increment_fraction=0.0), "pressure_increment_fraction = 0.0 is out of range"),
     (dict(engine="dynamic", pressure_increment_fraction=0.01), "pressure_increment_fraction = 0.01 means nothing to engine 'dynamic'"),
     (dict(engine="quasistatic", linear_solver="lu"), "linear_solver = 'lu' is out of range: allowed 'dense' or 'semiseparable'"),
@@ -203,8 +203,12 @@ def test_colon_stall_does_not_move_with_a_1e_9_change_of_the_command():
     (["reproduce", "ubend", "--radii", "30,x"], "--radii = '30,x': expected comma-separated numbers"),
     (["reproduce", "ubend", "--reductions", "0.6"], "--reductions = 0.6 is out of range"),
     (["reproduce", "ubend", "--sim", '{"engine": "quasistatic", "mass_ratio": 0.1}'], "mass_ratio = 0.1 means nothing to engine"),
-    (["reproduce", "colon", "--sim", '{"no_such_field": 1}'], "--sim: unknown SimConfig fields ['no_such_field']"),
-    (["reproduce", "colon", "--sim", "[1,"], "--sim = '[1,': expected a JSON object"),
+    (["reproduce", "colon", "--sim", '{"no_such_field": 1}'], "--sim: no_such_field = 1 is not a SimConfig field"),
+    (["reproduce", "colon", "--sim", "[1,"], "--sim: '[1,' is not JSON"),
+    (["reproduce", "colon", "--sim", "[1]"], "--sim: '[1]' is a JSON array: allowed a JSON object of SimConfig fields"),
+    (["reproduce", "colon", "--sim", '{"growth_increment_m": 0.5}'], "--sim: growth_increment_m = 0.5 is out of range: allowed"),
+    (["reproduce", "ubend", "--sim", '{"engine": "dynamic", "linear_solver": "dense"}'],
+     "--sim: linear_solver = 'dense' means nothing to engine 'dynamic'"),
     (["bench", "env", "--sim", '{"engine": "quasistatic"}'], "--sim is only used with --against"),
 ])
 def test_bad_engine_input_is_one_line_before_work_starts(argv, says, capsys, tmp_path):

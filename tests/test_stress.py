@@ -450,7 +450,7 @@ def drift_after_rest() -> tuple[float, float]:
 def test_every_new_segment_starts_on_its_joint(heading_deg):
     """A segment is created where its joint holds it, in every growth direction.
 
-    Fixed defect, kept as a regression test: ``EversionSim._add_segment`` set ``body.angle`` after ``body.position`` on a
+    Fixed defect, kept as a regression test: ``DynamicSim._add_segment`` set ``body.angle`` after ``body.position`` on a
     body whose centre of gravity is offset (``ds / 2``); pymunk keeps the centre of gravity
     fixed when the angle changes, so the origin (the pivot) lands ``ds |sin(theta / 2)|``
     away (7.5 mm at theta = 180 deg), and the joint snaps it back over the next steps: every
@@ -474,7 +474,7 @@ def test_tip_stays_out_of_the_wall_after_a_band_has_everted():
     segment appears at the bare radius, overlapping the wall by up to ``rho r`` (9 mm beyond
     the tolerance here), with a tip-force spike while the contact pushes it out.  The tip's
     radius now follows its newest ``ds`` of material and widens by at most ``dl / 2`` per
-    step (``EversionSim._tip_radius``).
+    step (``DynamicSim._tip_radius``).
     """
     assert band_exit_overlap_m() <= 0.0
 

@@ -25,7 +25,7 @@ from evertgym.experiments import paper
 from evertgym.experiments.trial import run_trial
 from evertgym.scoring.runner import run_trials
 from evertgym.scoring.store import ResultStore
-from evertgym.sim import SimConfig
+from evertgym.sim.config import parse_sim
 
 
 def main(argv: list[str] | None = None) -> dict:
@@ -42,10 +42,9 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--sim", default=None, help='SimConfig overrides as JSON, e.g. \'{"engine": "dynamic"}\' (default: none)')
     a = ap.parse_args(argv)
     try:
-        sim = json.loads(a.sim) if a.sim else None
-        SimConfig(**(sim or {}))
-    except (ValueError, TypeError) as e:
-        ap.error(f"--sim = {a.sim!r}: {e}")
+        sim = parse_sim(a.sim) or None
+    except ValueError as e:
+        ap.exit(2, f"--sim: {e}\n")
     radii = [float(x) for x in a.radii.split(",")]
     reductions = [float(x) for x in a.reductions.split(",")]
     bands_mm = [float(x) for x in a.bands_mm.split(",")] if a.bands_mm else []

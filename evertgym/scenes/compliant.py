@@ -277,12 +277,14 @@ class WallNetwork:
 
     def build(self, space: pymunk.Space, stiffness_factor: float = 1.0, dynamics: bool = True
               ) -> tuple[list[pymunk.Body], list[pymunk.Shape], list[pymunk.Constraint]]:
-        """Add the pieces (dynamic bodies), their shapes and springs to ``space``.
+        """Add the pieces (dynamic bodies), their shapes, tethers and springs to ``space``; returns the bodies,
+        the shapes and the springs.
 
         Spring stiffnesses are multiplied by ``stiffness_factor`` (see :meth:`Scene.build`).
-        ``dynamics=False`` is for an engine that never steps ``space`` (the quasi-static one):
-        the bodies get the physical masses and the springs no damping, so the eigenvalue
-        problem behind :attr:`mass_scale` is never solved.
+        ``dynamics=False`` is for an engine that never steps ``space`` (the quasi-static one, which
+        reads the wall's statics from :attr:`compliance_matrix` and shows its solved displacements on
+        the bodies): the bodies get the physical masses and no tether or spring is built, so the
+        eigenvalue problem behind :attr:`mass_scale` is never solved.
         """
         bodies: list[pymunk.Body] = []
         shapes: list[pymunk.Shape] = []
@@ -294,16 +296,20 @@ class WallNetwork:
             pts = self.outline[i]
             segs = [style_wall_shape(pymunk.Segment(body, tuple(pts[j]), tuple(pts[j + 1]), self.shape_radius))
                     for j in range(len(pts) - 1)]
+            space.add(body, *segs)
+            bodies.append(body)
+            shapes += segs
+            if not dynamics:
+                continue
             tether = pymunk.SlideJoint(space.static_body, body, tuple(self.position[i]), (0.0, 0.0), 0.0,
                                        self.mechanics.max_travel_m)
             # correct an overshoot within a few steps (the default, 10% per 1/60 s, lets a
             # loaded piece pass its travel by millimetres and creep back over seconds)
             tether.error_bias = TETHER_ERROR_BIAS
-            space.add(body, *segs, tether)
-            bodies.append(body)
-            shapes += segs
-        damping = self.damping if dynamics else np.zeros_like(self.k)
-        for a, b, pa, pb, k, rest, c in zip(self.sa, self.sb, self.pa, self.pb, self.k, self.rest, damping):
+            space.add(tether)
+        if not dynamics:
+            return bodies, shapes, springs
+        for a, b, pa, pb, k, rest, c in zip(self.sa, self.sb, self.pa, self.pb, self.k, self.rest, self.damping):
             ba = space.static_body if a < 0 else bodies[a]
             bb = space.static_body if b < 0 else bodies[b]
             la = tuple(pa - (0.0 if a < 0 else self.position[a]))

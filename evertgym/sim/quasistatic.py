@@ -47,17 +47,12 @@ import numpy as np
 import pymunk
 
 from evertgym._blas import one_blas_thread
-from evertgym.design import TubeDesign
-from evertgym.model.eversion import EversionThreshold, tail_weight_pressure
-from evertgym.model.params import ModelParams, load_params
 from evertgym.model.pressure import _END_SLOPE, KINK_MOMENT_FRACTION, wrinkled_moment_fraction
 from evertgym.scenes.scene import Scene
 from evertgym.sim import qs_kernel as qk
 from evertgym.sim.band_laws import axial_share, band_fold_pressure, flattening, fold_excess, hinged_band_near_tip
-from evertgym.sim.config import SimConfig
 from evertgym.sim.discretize import RESIDUAL_STIFFNESS_FRACTION
-from evertgym.sim.events import SimEvent
-from evertgym.sim.tube import GrowingTube, check_buildable
+from evertgym.sim.tube import EversionSim
 
 #: Pressure (Pa) below which the solver's force scale stops shrinking (a limp tube).
 _P_SCALE_FLOOR = 1000.0
@@ -93,6 +88,21 @@ _ESCALATION = 20
 _WORK_MIN = 50_000
 _WORK_PER_S = 2_000_000
 _SOLVE_WORK = 40
+#: A compliant piece's rotation spring (N m/rad) as a multiple of its stiffest translational stiffness times its
+#: length squared: the wall model lets a piece translate only, so its rotation is held by a spring far stiffer
+#: than its translation, finite to keep the piece's block of the Hessian invertible.
+_PIECE_ROTATION_STIFFNESS = 1e3
+#: The tether stop (the compliant wall's travel limit) as a multiple of the stiffest piece's own translational
+#: stiffness: two orders stiffer, so the stop, not the piece's springs, carries a push past the travel; a
+#: numerical stop (a piece's overshoot is reported, not hidden).
+_TRAVEL_STOP_STIFFNESS = 100.0
+#: Slack (m) of a compliant piece's bounding box beyond its travel: the box is drawn around the piece at rest,
+#: and a displaced piece must stay inside it for the wall query to find it.
+_PIECE_BOX_MARGIN_M = 0.005
+#: Widenings of one solve's window (at most): a held joint found out of balance after a solve rejoins it (the
+#: window then starts at the most proximal one) and the window is solved again; a bound on the passes
+#: (:meth:`QuasiStaticSim._solve`).
+_WIDENINGS = 6
 #: Root-finding steps (at most) that cut an increment back to the length where the drive balances the wall.
 _BISECTIONS = 10
 #: Largest change of the tip's reaction against growth over one increment, as a fraction of p pi r^2.
@@ -186,45 +196,28 @@ class SolveStats:
                 "solve_budget_cuts": self.budget_cuts}
 
 
-class QuasiStaticSim(GrowingTube):
-    """A growing eversion robot as a sequence of static equilibria (see the module docstring).
-
-    The constructor and the public interface are :class:`~evertgym.sim.simulator.EversionSim`'s
-    (``step``, ``run``, ``set_pressure_command``, ``centreline``, ``tip_position``, ...), so an
-    environment, a trial or a script runs either engine; ``SimConfig(engine=...)`` picks one.
+class QuasiStaticSim(EversionSim):
+    """The quasi-static engine (the default): a growing eversion robot as a sequence of static equilibria
+    (the module's docstring), built by ``EversionSim(design, scene, config)`` with ``config.engine`` left at
+    ``"quasistatic"``; the parameters and the interface are :class:`~evertgym.sim.tube.EversionSim`'s.
     """
 
     engine = "quasistatic"
 
-    def __init__(
-        self,
-        design: TubeDesign,
-        scene=None,
-        config: SimConfig | None = None,
-        base: tuple[float, float] | None = None,
-        direction: tuple[float, float] | None = None,
-        vertical_tail: bool = False,
-        threshold: EversionThreshold | None = None,
-        params: ModelParams | None = None,
-    ):
-        self.design = design
-        self.cfg = cfg = config or SimConfig()
-        check_buildable(design, cfg, scene)
-        self.params = params or load_params()
+    def _build_scene(self, scene):
+        """The scene's walls in a pymunk space that is never stepped: their shapes are read once
+        (:func:`_read_walls`) and the compliant pieces' bodies show the solved displacements; the scene builds
+        neither the pieces' springs and tethers nor their scaled masses (``dynamics=False``; an own scene class
+        keeps the scenes' protocol, ``build(space)``)."""
         self.space = pymunk.Space()
-        self.scene = scene
-        # the engine never steps the space: its compliant wall needs no scaled masses (an own scene class
-        # keeps the scenes' protocol, ``build(space, dt=None)``)
         if scene is None:
-            self.scene_handles = None
-        elif isinstance(scene, Scene):
-            self.scene_handles = scene.build(self.space, dynamics=False)
-        else:
-            self.scene_handles = scene.build(self.space)
-        self._place_base(scene, base, direction)
+            return None
+        if isinstance(scene, Scene):
+            return scene.build(self.space, dynamics=False)
+        return scene.build(self.space)
 
-        self._init_tube(design, cfg, threshold, vertical_tail)
-
+    def _build_body(self) -> None:
+        cfg, design = self.cfg, self.design
         # walls: arrays for the kernel; the compliant wall's pieces and linear springs
         handles = self.scene_handles
         self._piece_bodies: list[pymunk.Body] = list(getattr(handles, "bodies", []) or [])
@@ -238,7 +231,7 @@ class QuasiStaticSim(GrowingTube):
             pos = np.array([tuple(b.position) for b in self._piece_bodies], float)
             moving = w.piece >= 0
             ends = [np.where(moving[:, None], e + pos[np.maximum(w.piece, 0)], e) for e in ends]
-        grow = (w.radius + (travel + 0.005) * (w.piece >= 0))[:, None]  # a piece's box covers its travel
+        grow = (w.radius + (travel + _PIECE_BOX_MARGIN_M) * (w.piece >= 0))[:, None]  # a piece's box covers its travel
         self._feature_boxes = (np.minimum(*ends) - grow, np.maximum(*ends) + grow)
         n_p = len(self._piece_bodies)
         self._pc0 = np.array([tuple(b.position) for b in self._piece_bodies], float).reshape(-1, 2)
@@ -254,10 +247,10 @@ class QuasiStaticSim(GrowingTube):
             for i in range(n_p):
                 k2 = np.linalg.inv(comp[3 * i:3 * i + 2, 3 * i:3 * i + 2])
                 self._k_piece[i, :2, :2] = 0.5 * (k2 + k2.T)
-                self._k_piece[i, 2, 2] = 1e3 * float(np.max(k2)) * net.mechanics.piece_length_m**2
+                self._k_piece[i, 2, 2] = _PIECE_ROTATION_STIFFNESS * float(np.max(k2)) * net.mechanics.piece_length_m**2
         self._travel = travel
-        # the tether stop: 100 x the stiffest piece's own springs (a numerical stop, reported)
-        self._k_travel = 100.0 * float(np.max(self._k_piece[:, :2, :2])) if n_p else 0.0
+        # the tether stop: stiffer than the stiffest piece's own springs (a numerical stop, reported)
+        self._k_travel = _TRAVEL_STOP_STIFFNESS * float(np.max(self._k_piece[:, :2, :2])) if n_p else 0.0
 
         # the body's state: per segment its joint rotation (joint j against segment j - 1; joint 0
         # against the clamp), length and collision radius
@@ -269,28 +262,9 @@ class QuasiStaticSim(GrowingTube):
         self._req_key: tuple[float, float, float, float] | None = None
         self.seg_len = np.zeros(0)  # m
         self.seg_rad = np.zeros(0)  # m
-        self.length = 0.0
         self._start_chain(cfg.initial_length_m)
 
-        # clock, outputs, events
-        self.t = 0.0
-        self.steps = 0
-        self.events: list[SimEvent] = []
-        self.event_counts: dict[str, int] = {}
-        self._bands_reached: set[int] = set()
-        self._kinked: set[int] = set()
-        self._stall_clock = 0.0
-        self._stalled = False
-        self.stall_count = 0
-        self.growth_speed = 0.0
-        self.tip_force = 0.0
-        self.tip_contact = np.zeros(2)
-        self._tip_force_norm = 0.0
-        self._in_contact = False
-        self.max_contact_force = 0.0
-        self.peak_pressure = 0.0
-        self._step_mean_pressure = 0.0
-        self._step_max_contact = 0.0
+        # the growth and the solves (the clock, outputs and events are EversionSim's)
         self._pending = 0.0
         self._p_solved = -1.0
         # the tip's required pressure (Pa) just past where the last growth attempt stopped short (0: it
@@ -306,7 +280,6 @@ class QuasiStaticSim(GrowingTube):
         self._seg_force = np.zeros((0, 2))  # per segment: sum of wall forces (N), sum of p x f (N m)
         self._seg_moment = np.zeros(0)
         self._contact_segs: set[int] = set()
-        self.active_start = 0
         self._tip_clearance = math.inf
         self._grown = 0.0  # growth (m) the next solve follows (0: a solve in place), for its friction slip
         self._rejoin: tuple[int, int] | None = None  # (joint, solves since) of the last widening
@@ -388,11 +361,6 @@ class QuasiStaticSim(GrowingTube):
         """Heading of the tip segment (rad)."""
         return self.base_angle + float(np.sum(self.phi))
 
-    @property
-    def tip_direction(self) -> np.ndarray:
-        a = self.tip_angle
-        return np.array([math.cos(a), math.sin(a)])
-
     def joint_angles(self, start: int = 0) -> np.ndarray:
         return self.phi[start:].copy()
 
@@ -404,10 +372,6 @@ class QuasiStaticSim(GrowingTube):
 
     def collapse_moments(self, start: int = 0) -> np.ndarray:
         return 2.0 * self._mw_all[start : len(self.phi)]
-
-    @property
-    def kinked_joints(self) -> list[int]:
-        return sorted(self._kinked)
 
     @property
     def wall_tension(self) -> np.ndarray:
@@ -469,8 +433,7 @@ class QuasiStaticSim(GrowingTube):
         """The growth law's tip terms: the threshold (Pa) and area (m^2) of the material at the tip
         (the bare material's without ``band_eversion_threshold``), and the tail's weight (Pa)."""
         p_y, area = self._tip_threshold() if self.cfg.band_eversion_threshold else self._bare_threshold
-        tail = tail_weight_pressure(self.design.diameter_m, self.design.wall_thickness_m, self.length) if self.vertical_tail else 0.0
-        return p_y, area, tail
+        return p_y, area, self._tail_weight()
 
     def _folding_bands(self) -> list[tuple[float, float]]:
         """With ``band_fold``: each wholly everted band's radius (m) and the tail's tension at it (N),
@@ -777,26 +740,12 @@ class QuasiStaticSim(GrowingTube):
             self._mw_all = self._wrinkling_moments()
         tc = self.tip_contact
         mag = float(math.hypot(tc[0], tc[1]))
-        self._tip_force_norm = mag
-        self.max_contact_force = max(self.max_contact_force, mag)
-        touching = (len(self.seg_len) - 1) in self._contact_segs
-        if touching and not self._in_contact:
-            self._event("contact", force_n=round(mag, 6))
-        self._in_contact = touching
-        for i, start, reduction in self._band_starts:
-            if self.length >= start and i not in self._bands_reached:
-                self._bands_reached.add(i)
-                self._event("band_at_tip", band=i, reduction=reduction)
+        self._contact_update(mag, (len(self.seg_len) - 1) in self._contact_segs)
+        self._band_events()
         n = len(self.phi)
         moments, kinked = qk.kinked_joints(self.phi, self._k_all[:n], self._mw_all[:n], *_LAW[:3], _LAW[3], RESIDUAL_STIFFNESS_FRACTION,
                                            KINK_MOMENT_FRACTION)
-        for j in kinked:
-            if int(j) not in self._kinked:
-                self._kinked.add(int(j))
-                self._event("kink", joint_mm=round(float(self.nodes[j]) * 1e3, 3), at_band=bool(self._r3[j] < 0.999 * self.design.radius_m**3))
-        if self._kinked:
-            mc = 2.0 * self._mw_all[:n]
-            self._kinked = {j for j in self._kinked if abs(moments[j]) >= 0.8 * KINK_MOMENT_FRACTION * mc[j]}
+        self._kink_events(kinked, moments, 2.0 * self._mw_all[:n])
         if self.cfg.band_hinge_relief > 0:
             hinged = hinged_band_near_tip(moments, self._mw_all[:n], self._band_joints, self._band_centres, self.length,
                                           self.cfg.band_hinge_reach_m)
@@ -844,7 +793,7 @@ class QuasiStaticSim(GrowingTube):
         f_ref, m_ref = self._scales()
         tol_m, tol_f = self.cfg.solver_tolerance * m_ref, self.cfg.solver_tolerance * f_ref
         a = self._window_start()
-        for _ in range(6):  # a held joint out of balance widens the window
+        for _ in range(_WIDENINGS):  # a held joint out of balance widens the window
             if not self._solve_window(a, tol_m, tol_f):
                 return False
             if self._retry_wanted:

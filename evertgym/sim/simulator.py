@@ -26,7 +26,7 @@ relaxed to rest: no wall pushes on the tip harder than the weakest section can c
 Quasi-static regime: masses are scaled (see :class:`~evertgym.sim.config.SimConfig`);
 only equilibria are physical.  Segments far behind the tip that are at rest become static
 bodies and leave the active set, so a step costs in proportion to the active length.
-Nothing renders here; use ``evertgym.scenes.render_rgb`` with :meth:`EversionSim.centreline`.
+Nothing renders here; use ``evertgym.scenes.render_rgb`` with :meth:`DynamicSim.centreline`.
 """
 
 from __future__ import annotations
@@ -36,19 +36,14 @@ import math
 import numpy as np
 import pymunk
 
-from evertgym.design import TubeDesign
-from evertgym.model.eversion import EversionThreshold, tail_weight_pressure
-from evertgym.model.params import ModelParams, load_params
 from evertgym.model.pressure import KINK_MOMENT_FRACTION
 from evertgym.model.section_law import compression_capacity, distal_compression, tail_tension, wall_tension
 from evertgym.model.section_law import wrinkling_moment as wrinkling_moment_of_wall
 from evertgym.sim.chipmunk import arbiter_impulses, body_angles, set_rotary_stiffness, set_spring_stiffness
-from evertgym.sim.config import SimConfig
 from evertgym.sim.discretize import joint_moment, segment_inertia
 from evertgym.sim.dormant import WALL_REST_SPEED_M_PER_S, DormantWalls
-from evertgym.sim.events import SimEvent
 from evertgym.sim.links import Link, make_link
-from evertgym.sim.tube import GrowingTube, check_buildable, relax_step_budget
+from evertgym.sim.tube import EversionSim, check_buildable, relax_step_budget
 
 ROBOT_COLLISION_TYPE = 1
 _ROBOT_GROUP = 1
@@ -56,105 +51,53 @@ _ROBOT_GROUP = 1
 _FREEZE_INTERVAL = 25
 
 
+__all__ = ["DynamicSim", "EversionSim", "NumericalInstabilityError", "ROBOT_COLLISION_TYPE", "check_buildable"]
+
+
 class NumericalInstabilityError(RuntimeError):
     """The simulation produced non-finite or exploding state; the message names the setting to change."""
 
 
-class EversionSim(GrowingTube):
-    """A growing eversion robot in a pymunk space.
-
-    Parameters
-    ----------
-    design: the tube and its bands.
-    scene: anything with ``build(space, dt)`` (an :mod:`evertgym.scenes` scene) or None
-        for open space.  When given and ``base`` is None, the robot starts at
-        ``scene.entry`` along ``scene.entry_direction``.
-    config: fidelity and physics settings.
-    base, direction: the base pin (m) and the initial growth direction.
-    vertical_tail: add the weight of the hauled tail (vertical eversion test).
-    threshold: eversion threshold law (the paper-calibrated one by default).
-
-    ``EversionSim(...)`` builds the engine ``config.engine`` names: with ``"quasistatic"`` it
-    returns a :class:`~evertgym.sim.quasistatic.QuasiStaticSim` (same arguments, same interface).
-    """
+class DynamicSim(EversionSim):
+    """The dynamic engine: a growing eversion robot as a chain of rigid pymunk bodies (the module's
+    docstring), built by ``EversionSim(design, scene, SimConfig(engine="dynamic"))``; the parameters and the
+    interface are :class:`~evertgym.sim.tube.EversionSim`'s."""
 
     engine = "dynamic"
 
-    def __new__(cls, design: TubeDesign, scene=None, config: SimConfig | None = None, *args, **kwargs):
-        if cls is EversionSim and (config or SimConfig()).engine == "quasistatic":
-            from evertgym.sim.quasistatic import QuasiStaticSim
-
-            return QuasiStaticSim(design, scene, config, *args, **kwargs)
-        return super().__new__(cls)
-
-    def __init__(
-        self,
-        design: TubeDesign,
-        scene=None,
-        config: SimConfig | None = None,
-        base: tuple[float, float] | None = None,
-        direction: tuple[float, float] | None = None,
-        vertical_tail: bool = False,
-        threshold: EversionThreshold | None = None,
-        params: ModelParams | None = None,
-    ):
-        self.design = design
-        self.cfg = cfg = config or SimConfig()
-        check_buildable(design, cfg, scene)
-        self.params = params or load_params()
+    def _build_scene(self, scene):
+        cfg = self.cfg
         self.space = space = pymunk.Space()
         space.iterations = cfg.iterations
         space.damping = cfg.damping
         space.collision_slop = 2e-4
         # resolve 20% of an overlap per step: the tip everts into contact geometrically
         space.collision_bias = (1.0 - 0.2) ** (1.0 / cfg.dt_s)
-        self.scene = scene
-        self.scene_handles = scene.build(space, dt=cfg.dt_s) if scene is not None else None
+        return scene.build(space, dt=cfg.dt_s) if scene is not None else None
+
+    def _build_body(self) -> None:
+        cfg, design, space = self.cfg, self.design, self.space
         wall_bodies = getattr(self.scene_handles, "bodies", None)  # compliant wall pieces (an evertgym scene's handles)
         self._dormant = (DormantWalls(space, list(wall_bodies), cfg.wall_wake_margin_m, WALL_REST_SPEED_M_PER_S)
                          if cfg.dormant_walls and wall_bodies else None)
-        self._place_base(scene, base, direction)
         self._beta = cfg.damping**cfg.dt_s  # spring impulse kept after Chipmunk's damping
         self._damping_rate = -math.log(cfg.damping)  # velocity decay rate (1/s)
 
-        self._init_tube(design, cfg, threshold, vertical_tail)
-
-        # state
-        self.t = 0.0
-        self.steps = 0
+        # the chain's state
         self.bodies: list[pymunk.Body] = []
         self.shapes: list[pymunk.Segment] = []
         self.springs: list[pymunk.DampedRotarySpring] = []
         self.links: list[Link] = []
-        self.active_start = 0  # first body still dynamic
         self._rest_since: list[float] = []
         self._last_pose: dict[int, tuple[float, float, float]] = {}
         self._frozen_turning = 0.0
-        #: the first MAX_EVENTS events; later ones are only counted in ``event_counts``
-        self.events: list[SimEvent] = []
-        self.event_counts: dict[str, int] = {}
-        self._kinked: set[int] = set()
-        self._in_contact = False
         self._frontal = False
-        self._bands_reached: set[int] = set()
-        self._stall_clock = 0.0
-        self._stalled = False
         self._rest_pressure: float | None = None  # the pressure (Pa) the rest lock holds at
-        self.stall_count = 0
         self.relax_steps = 0  # solver steps spent relaxing without advancing time
         self.relax_budget_cuts = 0  # relaxations the step's work bound ended before rest (unconverged_solves)
         self._relax_left = 0.0
-        self.growth_speed = 0.0
-        self.tip_force = 0.0
-        self.tip_contact = np.zeros(2)
-        self._tip_force_norm = 0.0  # |tip_contact| (N)
-        self._step_mean_pressure = 0.0
-        self._step_max_contact = 0.0
         window = int(round(cfg.force_window_s / cfg.dt_s)) if cfg.section_law else 1
         self._tip_impulses = np.zeros((max(1, window), 2))  # ring buffer (N s)
-        self.max_contact_force = 0.0
-        self.peak_pressure = 0.0
-        self._p_applied = -1.0
         self._k_now = np.zeros(0)
         self._mw_now = np.zeros(0)
         #: the tail's drag at the base (N): the part of the eversion threshold that is tail
@@ -165,7 +108,6 @@ class EversionSim(GrowingTube):
         self._turning = 0.0
 
         self._anchor = space.static_body
-        self.length = 0.0
         self._start_chain(cfg.initial_length_m)
         self._apply_pressure(0.0)
 
@@ -274,12 +216,7 @@ class EversionSim(GrowingTube):
         set_rotary_stiffness(self.springs[a:], secant.tolist())
         mc = 2.0 * self._mw_now[a : a + len(phi)]
         kinked = np.nonzero(np.abs(moments) >= KINK_MOMENT_FRACTION * mc)[0] + a if np.any(mc > 0) else ()
-        for j in kinked:
-            if j not in self._kinked:
-                self._kinked.add(int(j))
-                self._event("kink", joint_mm=round(float(self.nodes[j]) * 1e3, 3), at_band=bool(self._r3[j] < 0.999 * self.design.radius_m**3))
-        if self._kinked:  # a joint that unloads well below its kink moment is no longer kinked
-            self._kinked = {j for j in self._kinked if j < a or abs(moments[j - a]) >= 0.8 * KINK_MOMENT_FRACTION * mc[j - a]}
+        self._kink_events(kinked, moments, mc, a)
         self._turning = self._frozen_turning + float(np.sum(np.abs(phi)))
 
     def _section_law(self, a: int, phi: np.ndarray, theta: np.ndarray, tail_base_n: float) -> None:
@@ -324,16 +261,6 @@ class EversionSim(GrowingTube):
         return np.array(b.local_to_world(sh.b))
 
     @property
-    def tip_direction(self) -> np.ndarray:
-        a = self.bodies[-1].angle
-        return np.array([math.cos(a), math.sin(a)])
-
-    @property
-    def kinked_joints(self) -> list[int]:
-        """Joints past the kink fraction of their collapse moment, base first."""
-        return sorted(self._kinked)
-
-    @property
     def wall_tension(self) -> np.ndarray:
         """``T_wall`` (N) of the active joints ``active_start..`` at the last law update
         (:mod:`evertgym.model.section_law`); negative where the wall would have to push.  The
@@ -370,8 +297,7 @@ class EversionSim(GrowingTube):
             self.tip_contact = np.zeros(2)
             self._frontal = False
             self.tip_force = 0.0
-            self._tip_force_norm = 0.0
-            self._in_contact = False
+            self._contact_update(0.0, False)
             return
         t = self.tip_direction
         total = [0.0, 0.0]
@@ -392,11 +318,7 @@ class EversionSim(GrowingTube):
         self._frontal = frontal
         self.tip_force = max(0.0, -float(f @ t))
         mag = float(math.hypot(*f))
-        self._tip_force_norm = mag
-        self.max_contact_force = max(self.max_contact_force, mag)
-        if touching and not self._in_contact:
-            self._event("contact", force_n=round(mag, 6))
-        self._in_contact = touching
+        self._contact_update(mag, touching)
 
     def _grow(self, v: float) -> None:
         if v <= 0:
@@ -406,13 +328,8 @@ class EversionSim(GrowingTube):
         dl = new_len - self.length
         if dl <= 0:
             return
-        # bands reaching the tip
-        for i, start, reduction in self._band_starts:
-            if new_len >= start and i not in self._bands_reached:
-                self._bands_reached.add(i)
-                self.length = new_len
-                self._event("band_at_tip", band=i, reduction=reduction)
         self.length = new_len
+        self._band_events()  # bands reaching the tip
         j = len(self.bodies) - 1
         sh = self.shapes[-1]
         nodes = self._node_list
@@ -461,8 +378,7 @@ class EversionSim(GrowingTube):
             self.bodies[-1].apply_force_at_local_point((f, 0.0), (sh.b.x, 0.0))
 
     def _required_pressure(self, p_y: float, area: float) -> float:
-        tail = tail_weight_pressure(self.design.diameter_m, self.design.wall_thickness_m, self.length) if self.vertical_tail else 0.0
-        return self.growth.required_pressure(p_y, self.tip_force, area, self._turning, tail, self._tail_base_n)
+        return self.growth.required_pressure(p_y, self.tip_force, area, self._turning, self._tail_weight(), self._tail_base_n)
 
     def required_pressure(self) -> float:
         """Pressure (Pa) the tip needs to grow now: its material's eversion threshold plus the

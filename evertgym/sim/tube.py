@@ -1,48 +1,152 @@
-"""What both engines share: a growing tube's material, its growth law and regulator, its events.
+"""The engine interface: :class:`EversionSim`, the growing tube both engines implement.
 
-:class:`GrowingTube` holds the parts of :class:`~evertgym.sim.simulator.EversionSim` (the dynamic
-pymunk chain) and :class:`~evertgym.sim.quasistatic.QuasiStaticSim` that do not depend on how the
-body is put in equilibrium: the tabulated material along the body, the eversion threshold at the
-tip, the growth law and the pressure regulator, stall detection and the event log.
+:class:`EversionSim` is the abstract base of the two engines, :class:`~evertgym.sim.quasistatic.QuasiStaticSim`
+(the default: the body in static equilibrium at every growth increment) and
+:class:`~evertgym.sim.simulator.DynamicSim` (the pymunk chain).  ``EversionSim(design, scene, config)``
+builds the engine ``config.engine`` names; either is an ``EversionSim``.  This class holds what does not
+depend on how the body is put in equilibrium, written once: the construction (settings, scene, base pin),
+the tabulated material along the body, the eversion threshold at the tip, the growth law and the pressure
+regulator, the shared state, the events (stall, contact, band at tip, kink, :meth:`_event`) and the tail's
+weight; and it declares, abstract, what each engine computes its own way.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from typing import ClassVar
 
 import numba as nb
 import numpy as np
 
 from evertgym.design import TubeDesign
 from evertgym.limits import MAX_EVENTS
-from evertgym.model.eversion import EversionThreshold, VariedThreshold
-from evertgym.model.params import ModelParams
-from evertgym.model.pressure import InflatedBeamLaw
-from evertgym.sim.config import SimConfig
+from evertgym.model.eversion import EversionThreshold, VariedThreshold, tail_weight_pressure
+from evertgym.model.params import ModelParams, load_params
+from evertgym.model.pressure import KINK_MOMENT_FRACTION, InflatedBeamLaw
+from evertgym.sim.config import _STEP_OVERHEAD_PASSES, MAX_DYNAMIC_WORK_PER_S, SimConfig, check_buildable, dynamic_work_per_s
 from evertgym.sim.events import SimEvent
 from evertgym.sim.growth import GrowthLaw, PressureRegulator
 from evertgym.sim.material import material_tables
 
+# (check_buildable and the dynamic engine's work bound are the settings' checks, in evertgym.sim.config)
+__all__ = ["ENGINE_CLASSES", "MAX_DYNAMIC_WORK_PER_S", "EversionSim", "check_buildable", "dynamic_work_per_s", "engine_class",
+           "relax_step_budget"]
 
-class GrowingTube:
-    """The engine-independent state of a growing tube (set up by :meth:`_init_tube`)."""
+#: The class of each engine by its name (``SimConfig.engine``): an engine class enters when it is defined
+#: (:meth:`EversionSim.__init_subclass__`); the package's ``__init__`` imports both engines' modules.
+ENGINE_CLASSES: dict[str, type[EversionSim]] = {}
 
-    design: TubeDesign
-    cfg: SimConfig
-    params: ModelParams
-    length: float
-    t: float
-    events: list[SimEvent]
-    event_counts: dict[str, int]
-    stall_count: int
-    _stall_clock: float
-    _stalled: bool
-    _step_mean_pressure: float
-    _step_max_contact: float
-    _in_contact: bool
-    #: advance the clock by ``n_steps`` steps of ``cfg.dt_s`` (each engine steps its own way)
-    step: Callable[[int], None]
+
+def engine_class(engine: str) -> type[EversionSim]:
+    """The class of engine ``engine`` (``"quasistatic"``: :class:`~evertgym.sim.quasistatic.QuasiStaticSim`;
+    ``"dynamic"``: :class:`~evertgym.sim.simulator.DynamicSim`)."""
+    if engine not in ENGINE_CLASSES:
+        raise ValueError(f"engine = {engine!r} is out of range: allowed {' or '.join(repr(e) for e in ENGINE_CLASSES)}")
+    return ENGINE_CLASSES[engine]
+
+
+class EversionSim:
+    """A growing eversion robot in a scene: the interface both engines implement.
+
+    Parameters
+    ----------
+    design: the tube and its bands.
+    scene: anything with ``build(space, ...)`` (an :mod:`evertgym.scenes` scene) or None for open space.
+        When given and ``base`` is None, the robot starts at ``scene.entry`` along ``scene.entry_direction``.
+    config: settings (:class:`~evertgym.sim.config.SimConfig`); ``config.engine`` picks the engine.
+    base, direction: the base pin (m) and the initial growth direction.
+    vertical_tail: add the weight of the hauled tail (vertical eversion test).
+    threshold: eversion threshold law (the paper-calibrated one, varied by ``config.threshold_z``, by default).
+    params: the rod model's parameters (the calibrated ones by default).
+
+    ``EversionSim(...)`` builds the engine ``config.engine`` names (:data:`ENGINE_CLASSES`); an engine's own
+    class may be built directly, with a config of its engine (or None: its defaults).
+
+    Out: ``length`` (m, everted), ``t`` (s), ``pressure`` (Pa), ``growth_speed`` (m/s), ``tip_force`` (N, the
+    wall's reaction against growth), ``tip_contact`` (N, the wall's force on the tip), ``max_contact_force``,
+    ``peak_pressure``, ``events`` and ``event_counts``, ``stall_count``, ``active_start`` (the first joint
+    that moves), and the geometry methods below.
+    """
+
+    #: the engine's name, ``SimConfig.engine``
+    engine: ClassVar[str]
+    #: What each engine computes its own way (declared below, raising NotImplementedError): an engine class
+    #: that does not define every one of them is refused when it is defined (:meth:`__init_subclass__`).
+    INTERFACE: ClassVar[tuple[str, ...]] = (
+        "_build_scene", "_build_body", "step", "required_pressure", "centreline", "radii", "tip_position", "tip_angle",
+        "joint_angles", "joint_moments", "collapse_moments", "segments_in_contact", "wall_tension", "compression_capacity",
+        "tip_capacity", "solve_stats", "at_rest")
+
+    def __init_subclass__(cls, **kwargs) -> None:
+        super().__init_subclass__(**kwargs)
+        missing = [name for name in cls.INTERFACE if getattr(cls, name) is getattr(EversionSim, name)]
+        if missing or not isinstance(getattr(cls, "engine", None), str):
+            raise TypeError(f"{cls.__name__} is not an engine: it must set engine and define {', '.join(missing) or 'them'}")
+        ENGINE_CLASSES[cls.engine] = cls
+
+    def __new__(cls, *args, **kwargs):
+        if cls is EversionSim:  # dispatch on the config's engine
+            config = kwargs["config"] if "config" in kwargs else (args[2] if len(args) > 2 else None)
+            cls = engine_class((config or SimConfig()).engine)
+        return super().__new__(cls)
+
+    def __init__(
+        self,
+        design: TubeDesign,
+        scene=None,
+        config: SimConfig | None = None,
+        base: tuple[float, float] | None = None,
+        direction: tuple[float, float] | None = None,
+        vertical_tail: bool = False,
+        threshold: EversionThreshold | None = None,
+        params: ModelParams | None = None,
+    ):
+        self.design = design
+        self.cfg = cfg = config or SimConfig(engine=self.engine)
+        if cfg.engine != self.engine:
+            raise ValueError(f"engine = {cfg.engine!r} is out of range for {type(self).__name__}: allowed {self.engine!r} "
+                             "(or build EversionSim(...), which picks the engine the config names)")
+        check_buildable(design, cfg, scene)
+        self.params = params or load_params()
+        self.scene = scene
+        self.scene_handles = self._build_scene(scene)
+        self._place_base(scene, base, direction)
+        self._init_tube(design, cfg, threshold, vertical_tail)
+        self._init_state()
+        self._build_body()
+
+    def _build_scene(self, scene):
+        """Make ``self.space`` and build ``scene`` (if any) into it; return the scene's handles (or None)."""
+        raise NotImplementedError
+
+    def _build_body(self) -> None:
+        """The engine's own state and the initial body (``cfg.initial_length_m``), put at rest."""
+        raise NotImplementedError
+
+    def _init_state(self) -> None:
+        """The state both engines keep, at the start."""
+        self.t = 0.0
+        self.steps = 0
+        self.length = 0.0
+        #: the first MAX_EVENTS events; later ones are only counted in ``event_counts``
+        self.events: list[SimEvent] = []
+        self.event_counts: dict[str, int] = {}
+        self._kinked: set[int] = set()
+        self._bands_reached: set[int] = set()
+        self._in_contact = False
+        self._stall_clock = 0.0
+        self._stalled = False
+        self.stall_count = 0
+        self.growth_speed = 0.0
+        self.tip_force = 0.0
+        self.tip_contact = np.zeros(2)
+        self._tip_force_norm = 0.0  # |tip_contact| (N)
+        self.max_contact_force = 0.0
+        self.peak_pressure = 0.0
+        self._step_mean_pressure = 0.0
+        self._step_max_contact = 0.0
+        self._p_applied = -1.0  # the pressure (Pa) the joints were last set to (-1: none yet)
+        self.active_start = 0  # the first joint (segment) that moves
 
     def _place_base(self, scene, base: tuple[float, float] | None, direction: tuple[float, float] | None) -> None:
         """The base pin (m) and the initial growth direction: given, or the scene's entry."""
@@ -102,6 +206,7 @@ class GrowingTube:
         return float(self.threshold(rho)), math.pi * r_tip * r_tip
 
     def _stall_update(self, v: float, dt: float) -> None:
+        """Stall detection: no growth faster than ``stall_speed_m_per_s`` for ``stall_time_s`` (a ``stall`` event)."""
         if v < self.cfg.stall_speed_m_per_s and self.length < self.design.length_m:
             self._stall_clock += dt
             if self._stall_clock >= self.cfg.stall_time_s and not self._stalled:
@@ -121,6 +226,120 @@ class GrowingTube:
         if len(self.events) < MAX_EVENTS:  # bounded: a long cycling run keeps its memory flat
             self.events.append(SimEvent(round(self.t, 6), kind, round(self.length * 1e3, 3), detail))
 
+    def _contact_update(self, force_n: float, touching: bool) -> None:
+        """The tip's wall force ``|tip_contact|`` (N) and whether it touches a wall now: the largest force so far,
+        and a ``contact`` event when the tip comes to touch."""
+        self._tip_force_norm = force_n
+        self.max_contact_force = max(self.max_contact_force, force_n)
+        if touching and not self._in_contact:
+            self._event("contact", force_n=round(force_n, 6))
+        self._in_contact = touching
+
+    def _band_events(self) -> None:
+        """A ``band_at_tip`` event for each band whose start the tip (``length``) has reached, once per band."""
+        for i, start, reduction in self._band_starts:
+            if self.length >= start and i not in self._bands_reached:
+                self._bands_reached.add(i)
+                self._event("band_at_tip", band=i, reduction=reduction)
+
+    def _kink_events(self, kinked, moments: np.ndarray, collapse: np.ndarray, first: int = 0) -> None:
+        """A ``kink`` event for each joint of ``kinked`` (indices) not kinked before; then a kinked joint that unloads
+        below 0.8 of the kink fraction of its collapse moment is no longer kinked.  ``moments`` and ``collapse``
+        (N m) are those of joints ``first..``; a joint before ``first`` (held, not updated) stays kinked."""
+        for j in kinked:
+            if j not in self._kinked:
+                self._kinked.add(int(j))
+                self._event("kink", joint_mm=round(float(self.nodes[j]) * 1e3, 3), at_band=bool(self._r3[j] < 0.999 * self.design.radius_m**3))
+        if self._kinked:
+            self._kinked = {j for j in self._kinked if j < first or abs(moments[j - first]) >= 0.8 * KINK_MOMENT_FRACTION * collapse[j - first]}
+
+    def _tail_weight(self) -> float:
+        """The hauled tail's weight as a pressure (Pa) with ``vertical_tail``, else 0."""
+        if not self.vertical_tail:
+            return 0.0
+        return tail_weight_pressure(self.design.diameter_m, self.design.wall_thickness_m, self.length)
+
+    @property
+    def kinked_joints(self) -> list[int]:
+        """Joints past the kink fraction of their collapse moment, base first."""
+        return sorted(self._kinked)
+
+    @property
+    def tip_direction(self) -> np.ndarray:
+        """Unit vector along the tip segment."""
+        a = self.tip_angle
+        return np.array([math.cos(a), math.sin(a)])
+
+    # ---- what each engine computes its own way ---------------------------------------
+    def step(self, n_steps: int = 1) -> None:
+        """Advance the clock by ``n_steps`` steps of ``cfg.dt_s``; :attr:`step_mean_pressure` and
+        :attr:`step_max_contact_force` summarise them."""
+        raise NotImplementedError
+
+    def required_pressure(self) -> float:
+        """Pressure (Pa) the tip needs to grow now; below it the robot stalls."""
+        raise NotImplementedError
+
+    def centreline(self) -> np.ndarray:
+        """Node positions from the base to the tip (m), (n+1) x 2."""
+        raise NotImplementedError
+
+    def radii(self) -> np.ndarray:
+        """Collision radius of each segment (m)."""
+        raise NotImplementedError
+
+    @property
+    def tip_position(self) -> np.ndarray:
+        """The tip (m)."""
+        raise NotImplementedError
+
+    @property
+    def tip_angle(self) -> float:
+        """Heading of the tip segment (rad)."""
+        raise NotImplementedError
+
+    def joint_angles(self, start: int = 0) -> np.ndarray:
+        """Relative rotation of joints ``start..`` (rad); joint 0 is measured against the clamp."""
+        raise NotImplementedError
+
+    def joint_moments(self, start: int = 0) -> np.ndarray:
+        """Joint moments (N m) of joints ``start..`` from the joint law at the current angles."""
+        raise NotImplementedError
+
+    def collapse_moments(self, start: int = 0) -> np.ndarray:
+        """Collapse (kink) moment ``M_c`` (N m) of joints ``start..`` at the applied pressure."""
+        raise NotImplementedError
+
+    def segments_in_contact(self) -> list[int]:
+        """Segments that touch a wall now."""
+        raise NotImplementedError
+
+    @property
+    def wall_tension(self) -> np.ndarray:
+        """``T_wall`` (N) of the joints from ``active_start``."""
+        raise NotImplementedError
+
+    @property
+    def compression_capacity(self) -> np.ndarray:
+        """The compression (N) each joint from ``active_start`` carries before it folds axially."""
+        raise NotImplementedError
+
+    @property
+    def tip_capacity(self) -> float:
+        """The most the wall may push on the tip (N)."""
+        raise NotImplementedError
+
+    @property
+    def solve_stats(self) -> dict:
+        """The engine's counts of its equilibrium solves (reported in ``info`` and trial records)."""
+        raise NotImplementedError
+
+    @property
+    def at_rest(self) -> bool:
+        """Whether the body is in static equilibrium now."""
+        raise NotImplementedError
+
+    # ---- pressure, clock ---------------------------------------------------------------
     def set_pressure_command(self, pressure_pa: float) -> float:
         """Command the regulator (Pa, clipped to [0, 8 kPa]); returns the clipped command."""
         return self.regulator.set_command(pressure_pa)
@@ -152,27 +371,9 @@ class GrowingTube:
         return self._in_contact
 
 
-#: The most work (segment passes, :func:`dynamic_work_per_s`) per simulated second the dynamic engine accepts:
-#: about 185 times its default on a 0.9 m body (5.4e6).  Measured on 2 shared cores (docs/robustness.md): 27
-#: passes per 1e-5 s step on 1 mm segments, never frozen (9.6e9), took 4 s per 0.1 s env step on average and 45 s
-#: for the worst one (the body in the bend's contacts); at this bound the worst step stays well under 10 s.
-MAX_DYNAMIC_WORK_PER_S = 1e9
-#: A pymunk step's own cost per body (collision detection, the Python loop), in constraint passes.
-_STEP_OVERHEAD_PASSES = 80
-
-
 #: Relaxation work (segment passes) one dynamic step call may spend beyond :data:`MAX_DYNAMIC_WORK_PER_S` over its
 #: simulated time: a single 2 ms step of a 0.9 m body may relax for about 900 steps.
 _RELAX_WORK_MIN = 1e7
-
-
-def dynamic_work_per_s(design: TubeDesign, cfg: SimConfig) -> float:
-    """An upper bound of the dynamic engine's stepping work per simulated second, in segment passes: every
-    segment of the body active, ``iterations`` constraint passes plus the step's own cost
-    (:data:`_STEP_OVERHEAD_PASSES`) per step of ``dt_s``.  Relaxation (section law) is bounded at run time
-    (:func:`relax_step_budget`)."""
-    segments = design.length_m / cfg.segment_length_m
-    return (cfg.iterations + _STEP_OVERHEAD_PASSES) * segments / cfg.dt_s
 
 
 def relax_step_budget(design: TubeDesign, cfg: SimConfig, n_steps: int) -> float:
@@ -181,30 +382,6 @@ def relax_step_budget(design: TubeDesign, cfg: SimConfig, n_steps: int) -> float
     take: 50 per growth step at most)."""
     per_step = (cfg.iterations + _STEP_OVERHEAD_PASSES) * design.length_m / cfg.segment_length_m
     return (MAX_DYNAMIC_WORK_PER_S * n_steps * cfg.dt_s + _RELAX_WORK_MIN) / per_step
-
-
-def check_buildable(design: TubeDesign, cfg: SimConfig, scene=None) -> None:
-    """Raise ``ValueError`` naming the field unless the simulator can build ``design`` with
-    ``cfg`` in ``scene``: the body must hold the initial chain, the dynamic engine's work per simulated
-    second is bounded (:data:`MAX_DYNAMIC_WORK_PER_S`), and the robot's diameter may not exceed the
-    scene's narrowest lumen."""
-    need = cfg.initial_length_m
-    if design.length_m < need - 1e-12:
-        raise ValueError(f"length_m = {design.length_m:g} is out of range: allowed >= {need:g} m "
-                         "(the simulator's initial_length_m)")
-    if cfg.engine == "dynamic":
-        work = dynamic_work_per_s(design, cfg)
-        if work > MAX_DYNAMIC_WORK_PER_S:
-            raise ValueError(
-                f"dt_s = {cfg.dt_s:g}, iterations = {cfg.iterations}, segment_length_m = {cfg.segment_length_m:g}"
-                f" on a {design.length_m:g} m body ask the dynamic engine for {work:.3g} segment passes per simulated second: "
-                f"out of range, allowed at most {MAX_DYNAMIC_WORK_PER_S:.0e} (the defaults ask "
-                f"{dynamic_work_per_s(design, type(cfg)(engine='dynamic')):.2g}; beyond it one 0.1 s env step runs for seconds): "
-                "raise dt_s or segment_length_m, or lower iterations")
-    lumen = getattr(scene, "lumen_width", None)
-    if lumen is not None and len(lumen) and design.diameter_m > float(np.min(lumen)) + 1e-9:
-        raise ValueError(f"diameter_m = {design.diameter_m:g} is out of range: allowed up to the scene's narrowest "
-                         f"lumen, {float(np.min(lumen)):g} m (the robot must fit the channel)")
 
 
 @nb.njit(cache=True, nogil=True)
