@@ -147,7 +147,7 @@ class SimConfig:
     dormant_walls: bool = False
     wall_wake_margin_m: float = 0.03
     engine: str = "quasistatic"
-    growth_increment_m: float = 0.001
+    growth_increment_m: float = 0.0005
     solver_tolerance: float = 1e-3
     barrier_gap_m: float = 0.001
     friction_slip_fraction: float = 0.01
