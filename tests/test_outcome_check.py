@@ -8,13 +8,14 @@ import pytest
 import evertgym.agents.evaluate as ev
 from evertgym.agents.evaluate import OUTCOME_CHECKS, evaluate, outcome_check_kwargs
 from evertgym.env.eversion_env import HELD_OUT_SEED_BASE
+from evertgym.sim.config import SimConfig
 
 
 def test_the_replays_divide_the_envs_own_settings_and_keep_the_rest():
     assert [name for name, _ in OUTCOME_CHECKS] == ["solver_tolerance", "growth_increment_m"]
     plays = outcome_check_kwargs({"regulator_tau_s": [0.1, 0.6]})
     assert plays == [{"regulator_tau_s": [0.1, 0.6], "sim_config": {"solver_tolerance": 1e-4}},
-                     {"regulator_tau_s": [0.1, 0.6], "sim_config": {"growth_increment_m": 5e-4}}]
+                     {"regulator_tau_s": [0.1, 0.6], "sim_config": {"growth_increment_m": SimConfig().growth_increment_m / 2}}]
     own = outcome_check_kwargs({"sim_config": {"solver_tolerance": 1e-2, "growth_increment_m": 2e-3}})
     assert [p["sim_config"] for p in own] == [{"solver_tolerance": 1e-3, "growth_increment_m": 2e-3},
                                               {"solver_tolerance": 1e-2, "growth_increment_m": 1e-3}]
@@ -74,5 +75,5 @@ def test_the_cli_flag_reports_the_checks_and_refuses_the_dynamic_engine(capsys, 
     assert main(["eval", "constant", "--env", "evertgym/UBend-v0", "--episodes", "1", "--check-outcomes", "--json",
                  "--env-kwargs", json.dumps({"max_episode_s": 0.5})]) == 0
     out = json.loads(capsys.readouterr().out)
-    assert out["outcome_checks"] == [{"solver_tolerance": 1e-4}, {"growth_increment_m": 5e-4}]
+    assert out["outcome_checks"] == [{"solver_tolerance": 1e-4}, {"growth_increment_m": SimConfig().growth_increment_m / 2}]
     assert {"undecided_episodes", "undecided_seeds", "success_low", "success_high"} <= set(out["rows"][0])
