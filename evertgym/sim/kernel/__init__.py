@@ -29,7 +29,9 @@ environment compiles them, later processes load the cache.
 
 from __future__ import annotations
 
+import hashlib
 import math
+from pathlib import Path
 
 from evertgym.sim.kernel.bundles import (
     Body,
@@ -54,6 +56,33 @@ from evertgym.sim.kernel.geometry import chain_nodes, max_node_shift
 from evertgym.sim.kernel.newton import CONVERGED, INFEASIBLE_START, LINE_SEARCH_FAILED, MAX_ITERATIONS, solve, solve_increment
 from evertgym.sim.kernel.terms import joint_moments, kinked_joints
 from evertgym.sim.kernel.window import gather_walls, merge_friction, piece_window, window_friction, window_setup
+
+
+def _drop_stale_cache() -> None:
+    """Delete the kernel's numba cache when any of its modules changed since it was written.
+
+    numba keys a function's cache on its own file alone, while the compiled code of a caller holds its
+    callees: an edit of ``terms.py`` would leave ``newton.py``'s cached solve with the old terms.  The
+    cache (``__pycache__/*.nbi``, ``*.nbc`` beside the sources) is kept only while a digest of every
+    module's source matches the one stored with it; where the folder cannot be written (an installed
+    package), numba keeps its cache elsewhere and nothing is done here."""
+    here = Path(__file__).parent
+    digest = hashlib.sha256(b"".join(p.read_bytes() for p in sorted(here.glob("*.py")))).hexdigest()
+    cache = here / "__pycache__"
+    stamp = cache / "kernel-sources.sha256"
+    try:
+        if stamp.is_file() and stamp.read_text() == digest:
+            return
+        for f in list(cache.glob("*.nbi")) + list(cache.glob("*.nbc")):
+            f.unlink()
+        cache.mkdir(exist_ok=True)
+        stamp.write_text(digest)
+    except OSError:
+        pass
+
+
+# (before any kernel function is first called: numba loads a cache then)
+_drop_stale_cache()
 
 #: The largest drive the barrier is scaled to (Pa): the robots' highest operating pressure.
 BARRIER_DRIVE_PA = 8000.0

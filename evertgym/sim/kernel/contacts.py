@@ -18,6 +18,8 @@ from evertgym.sim.kernel.geometry import closest, lazy_pose, pair_at, poses, seg
 #: Segments per block in the candidate search of :func:`contacts` (a block's circle is tested first) and
 #: in the box tests of :func:`overlaps` and :func:`select_features` (a block's box first).
 BLOCK = 8
+#: Candidate pairs per segment the candidate list is first made for (it doubles when full).
+CANDIDATES_PER_SEGMENT = 8
 #: Columns of a contact row.
 ROW_COLUMNS = 11
 #: Allowance (m) for rounding in a block's bounding circle: never narrower than its segments' circles.
@@ -57,7 +59,7 @@ def candidates(nodes: np.ndarray, seg_len: np.ndarray, seg_rad: np.ndarray, circ
     first: the features near it)."""
     m = seg_len.shape[0]
     nw = circ.shape[0]
-    cand = np.empty((m * 8 + 16, 2), np.int64)  # (grown when full)
+    cand = np.empty((m * CANDIDATES_PER_SEGMENT + 2 * CANDIDATES_PER_SEGMENT, 2), np.int64)
     cnt = 0
     near = np.empty(nw, np.int64)
     for k0 in range(0, m, BLOCK):

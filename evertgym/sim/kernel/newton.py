@@ -48,7 +48,9 @@ MAX_JOINT_TURN_RAD = 0.5
 ARMIJO = 1e-4
 #: ... or changes it by no more than its rounding (this fraction of it).
 ENERGY_ROUNDING = 1e-13
-#: Halvings of the step before the line search gives up.
+#: Backtracking: the step's factor after a trial that overlaps a wall or fails Armijo's test ...
+BACKTRACK = 0.5
+#: ... and the trials before the line search gives up.
 MAX_HALVINGS = 60
 #: The Levenberg shift's warm start: this fraction of the last one.
 SHIFT_WARM_START = 0.1
@@ -217,7 +219,7 @@ def line_search(problem: Problem, fr: Friction, phi: np.ndarray, u: np.ndarray, 
                 return Trial(True, alpha, trial_phi, u_try, trial_nodes, e1, lst)
             alpha *= CCD_BACKOFF * free
             continue
-        alpha *= 0.5
+        alpha *= BACKTRACK
     return Trial(False, alpha, trial_phi, u_try, trial_nodes, e1, lst)
 
 

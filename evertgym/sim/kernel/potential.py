@@ -107,7 +107,11 @@ def chain_gradient(acc: Accumulators, nodes: np.ndarray) -> np.ndarray:
 def chain_columns(acc: Accumulators, nodes: np.ndarray, gsum: np.ndarray) -> np.ndarray:
     """The parts of the joints' Hessian that depend on the later joint alone: with the contacts' sums
     taken from the tip, ``H_ij (j >= i) = w_i^T smat[j] w_j + gsum_j + va_j + vf_j . n_i`` with
-    ``w = (1, -n_x, n_y)``; returns ``cj`` (m, 4) = ``[smat[j] w_j, gsum_j + va_j]``."""
+    ``w = (1, -n_x, n_y)``; returns ``cj`` (m, 4) = ``[smat[j] w_j, gsum_j + va_j]``.
+
+    ``vf_j``, the forces of wall vertices on the sides of segments ``>= j``, act at points that slide
+    along their segments: the curvature of such a distance is ``n . (p - n_min(i,j)) - D``; ``gsum_j``
+    still holds ``-f . n_j`` of theirs (the finite differences of ``tests/test_kernel_terms.py`` show it)."""
     smat = acc.smat
     va = acc.va
     vf = acc.vf

@@ -10,13 +10,16 @@ whatever calls it).  The contact and friction terms act through points of the ch
 add into per-segment sums (:class:`~evertgym.sim.kernel.bundles.Accumulators`) that
 :mod:`evertgym.sim.kernel.potential` turns into the joints' gradient and Hessian.
 
-The barrier's Hessian is exact: the rank-one ``kappa b'' g g^T`` of the distance's gradient, the
-chain's geometric stiffness under the contact force, and the distance's own curvature where it has
-one (a pair whose closest points are two points: ``kappa b' (I - n n^T) / dist``; a wall vertex
-against a segment's side: the distance to a line that turns with the joints; a robot node against a
-piece's side: the line turns with the piece).  The friction term's Hessian keeps the 1-D tangent's
-``f1'`` and the chain's geometric stiffness under the friction force; it drops the second
-derivative of a piece's wall point under its rotation (the tests measure it).
+The Hessians against central differences (``tests/test_kernel_terms.py``): the joint law's stiffness
+is its table's slope over a cell, consistent with its moment to the table's resolution; the piece
+springs' is exact.  The barrier's holds the rank-one ``kappa b'' g g^T`` of the distance's gradient,
+the chain's geometric stiffness under the contact force, and the distance's own curvature for a pair
+whose closest points are two points (``kappa b' (I - n n^T) / dist``) and for a robot node against a
+piece's side (the line turns with the piece), exactly; for a wall vertex against a segment's side
+(the distance to a line that turns with the joints) it keeps a ``-f . n_max(i,j)`` too many, and it
+drops the turn of a piece's wall point in a two-point pair.  The friction term's keeps the 1-D
+tangent's ``f1'`` (0 once sliding) and the chain's geometric stiffness under the friction force,
+exactly on static walls; it drops the turn of a piece's wall point.
 """
 
 from __future__ import annotations
@@ -345,8 +348,9 @@ def _vertex_side(acc: Accumulators, k: int, p: tuple[float, float], q: tuple[flo
                  fmag: float, dist: float, piece: int, centre: tuple[float, float]) -> None:
     """The curvature of a wall vertex's distance to a segment's side: the distance to a line that
     turns with the joints, ``d2D/dphi_i dphi_j = n . (p - n_min(i,j)) - D``, replaces the material
-    point's ``-n . (p - n_max(i,j))`` (the contact point slides along the segment); a piece's vertex
-    moves with the piece while the line turns with the joints."""
+    point's geometric stiffness (the contact point slides along the segment): ``acc_fx`` takes back
+    its ``f . p``, ``va`` and ``vf`` carry the rest (:func:`evertgym.sim.kernel.potential.chain_columns`);
+    a piece's vertex moves with the piece while the line turns with the joints."""
     px, py = p
     nx, ny = n
     fx = fmag * nx
