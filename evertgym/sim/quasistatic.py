@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import pymunk
@@ -185,6 +186,25 @@ class SolveStats:
                 "max_residual_ratio": self.max_residual_ratio, "rejoined_joints": self.rejoined,
                 "solve_retries": self.retried, "solve_escalations": self.escalated, "solve_reselections": self.reselected,
                 "solve_budget_cuts": self.budget_cuts}
+
+
+class _Snapshot(NamedTuple):
+    """The body's state at a growth increment's start (:meth:`QuasiStaticSim._snapshot`), restored if
+    the increment is retried shorter or cut back."""
+
+    phi: np.ndarray
+    seg_len: np.ndarray
+    seg_rad: np.ndarray
+    length: float
+    u: np.ndarray
+    fric: dict
+    seg_force: np.ndarray
+    seg_moment: np.ndarray
+    contact_segs: set
+    tip_force: float
+    tip_contact: np.ndarray
+    tip_clearance: float
+    active_start: int
 
 
 class QuasiStaticSim(GrowingTube):
@@ -590,12 +610,12 @@ class QuasiStaticSim(GrowingTube):
         return inc
 
     # ---- one growth increment ----------------------------------------------------------
-    def _snapshot(self) -> tuple:
-        return (self.phi.copy(), self.seg_len.copy(), self.seg_rad.copy(), self.length, self._u_all.copy(), dict(self._fric),
+    def _snapshot(self) -> _Snapshot:
+        return _Snapshot(self.phi.copy(), self.seg_len.copy(), self.seg_rad.copy(), self.length, self._u_all.copy(), dict(self._fric),
                 self._seg_force.copy(), self._seg_moment.copy(), set(self._contact_segs), self.tip_force, self.tip_contact.copy(),
                 self._tip_clearance, self.active_start)
 
-    def _restore(self, snap: tuple) -> None:
+    def _restore(self, snap: _Snapshot) -> None:
         (phi, seg_len, seg_rad, self.length, u, fric, seg_force, seg_moment, contact_segs, self.tip_force,
          tip_contact, self._tip_clearance, self.active_start) = snap
         self.phi, self.seg_len, self.seg_rad, self._fric = phi.copy(), seg_len.copy(), seg_rad.copy(), dict(fric)
@@ -650,7 +670,7 @@ class QuasiStaticSim(GrowingTube):
         if cut or self.cfg.flattening > 0:  # (else the state was published as it stands: publishing is idempotent)
             self._publish()
 
-    def _cut_back(self, start: tuple, dl: float, p: float, req_end: float) -> None:
+    def _cut_back(self, start: _Snapshot, dl: float, p: float, req_end: float) -> None:
         """Find, from state ``start``, the growth in ``(0, dl)`` at which the tip's required pressure
         meets ``p`` (regula falsi, Illinois variant, on ``p_req(L) - p``; a length whose solve
         overlaps a wall counts as too far) and leave the body there: within ``dl / 128`` of it or
@@ -659,7 +679,7 @@ class QuasiStaticSim(GrowingTube):
         (``_req_ahead``): where it jumps (a band's eversion threshold at the tip) the tip stands at
         the jump, and the growth law reads that pressure, not the lower one behind it."""
         lo, hi = 0.0, dl
-        g_lo = self._required(start[9]) - p
+        g_lo = self._required(start.tip_force) - p
         g_hi = math.inf
         req_hi = req_end
         best, side = None, 0
