@@ -5,8 +5,8 @@ Units are SI throughout.  Arrays inside a bundle may be updated in place (the un
 ``u`` are, by the Newton solve); the bundles themselves are never rebuilt to change a field.
 """
 
-from __future__ import annotations
-
+# (no ``from __future__ import annotations``: the bundles' fields keep their types as objects, which the
+# API reference resolves in the package that re-exports them)
 from typing import NamedTuple
 
 import numpy as np

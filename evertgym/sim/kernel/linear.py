@@ -9,8 +9,8 @@ indefinite).  Two solvers of the same system (``SimConfig.linear_solver``):
   eliminated into the generators where they allow it (:func:`semi_schur_solve`).
 """
 
-from __future__ import annotations
-
+# (no ``from __future__ import annotations``: the NamedTuples' fields keep their types as objects, which
+# the API reference resolves)
 import math
 from typing import NamedTuple
 

@@ -9,8 +9,8 @@ energy; and the contact pairs listed again once the body has moved far enough to
 :func:`solve_increment` wraps the solve in the friction lag: the normal forces and tangents are
 updated from the solution and the solve repeated until they stop changing."""
 
-from __future__ import annotations
-
+# (no ``from __future__ import annotations``: the NamedTuples' fields keep their types as objects, which
+# the API reference resolves)
 import math
 from typing import NamedTuple
 
