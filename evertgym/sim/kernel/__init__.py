@@ -21,7 +21,9 @@ Modules, in the order a solve uses them:
 * :mod:`~evertgym.sim.kernel.linear`: the Newton step's dense and semiseparable solves;
 * :mod:`~evertgym.sim.kernel.ccd`: the collision-free bound of a step;
 * :mod:`~evertgym.sim.kernel.friction`: the lagged friction entries;
-* :mod:`~evertgym.sim.kernel.newton`: the Newton driver and the friction lag.
+* :mod:`~evertgym.sim.kernel.newton`: the Newton driver and the friction lag;
+* :mod:`~evertgym.sim.kernel.api`: the entry points the engine calls from Python per solve
+  (``window_setup``, ``solve_increment``, ``merge_friction``), re-exported here.
 
 Everything is SI.  The functions are compiled with numba (``cache=True``): the first call in a fresh
 environment compiles them, later processes load the cache.
@@ -33,6 +35,7 @@ import hashlib
 import math
 from pathlib import Path
 
+from evertgym.sim.kernel.api import merge_friction, solve_increment, window_setup
 from evertgym.sim.kernel.bundles import (
     Body,
     Chain,
@@ -53,9 +56,9 @@ from evertgym.sim.kernel.bundles import (
 )
 from evertgym.sim.kernel.contacts import contacts, overlaps, segment_gap, select_features, touching
 from evertgym.sim.kernel.geometry import chain_nodes, max_node_shift
-from evertgym.sim.kernel.newton import CONVERGED, INFEASIBLE_START, LINE_SEARCH_FAILED, MAX_ITERATIONS, solve, solve_increment
+from evertgym.sim.kernel.newton import CONVERGED, INFEASIBLE_START, LINE_SEARCH_FAILED, MAX_ITERATIONS, solve
 from evertgym.sim.kernel.terms import joint_moments, kinked_joints
-from evertgym.sim.kernel.window import gather_walls, merge_friction, piece_window, window_friction, window_setup
+from evertgym.sim.kernel.window import gather_walls, piece_window, window_friction
 
 
 def _drop_stale_cache() -> None:
