@@ -167,26 +167,35 @@ def barrier_energy(e: float, geo: np.ndarray, npairs: int, contact: ContactLaw) 
 
 
 @nb.njit(cache=True, nogil=True)
-def slip(c: int, nodes: np.ndarray, fr: Friction, wpiece: np.ndarray,
-         pose: np.ndarray) -> tuple[int, float, float, float, float, float, float]:
-    """Lagged friction entry ``c`` now: its segment and parameter, the robot point, the wall point and
-    the tangential slip ``u_T`` (m) since the configuration before the solve."""
-    k = fr.k[c]
-    s = fr.s[c]
+def slip_at(c: int, nodes: np.ndarray, fk: np.ndarray, fs: np.ndarray, fw: np.ndarray, fwl: np.ndarray, ft: np.ndarray, fxr0: np.ndarray,
+            fxw0: np.ndarray, wpiece: np.ndarray, pose: np.ndarray) -> tuple[int, float, float, float, float, float, float]:
+    """:func:`slip` with the entries' arrays taken out of their bundle once by the caller (numba counts
+    a reference for every array taken out of a tuple: in a loop over the entries that costs more than
+    the arithmetic)."""
+    k = fk[c]
+    s = fs[c]
     xr = nodes[k, 0] * (1 - s) + nodes[k + 1, 0] * s
     yr = nodes[k, 1] * (1 - s) + nodes[k + 1, 1] * s
-    xw, yw = wall_point(fr.w[c], fr.wl[c, 0], fr.wl[c, 1], wpiece, pose)
-    ut = ((xr - fr.xr0[c, 0]) - (xw - fr.xw0[c, 0])) * fr.t[c, 0] + ((yr - fr.xr0[c, 1]) - (yw - fr.xw0[c, 1])) * fr.t[c, 1]
+    xw, yw = wall_point(fw[c], fwl[c, 0], fwl[c, 1], wpiece, pose)
+    ut = ((xr - fxr0[c, 0]) - (xw - fxw0[c, 0])) * ft[c, 0] + ((yr - fxr0[c, 1]) - (yw - fxw0[c, 1])) * ft[c, 1]
     return k, s, xr, yr, xw, yw, ut
+
+
+@nb.njit(cache=True, nogil=True)
+def slip(c: int, nodes: np.ndarray, fr: Friction, wpiece: np.ndarray, pose: np.ndarray) -> tuple[int, float, float, float, float, float, float]:
+    """Lagged friction entry ``c`` now: its segment and parameter, the robot point, the wall point and
+    the tangential slip ``u_T`` (m) since the configuration before the solve."""
+    return slip_at(c, nodes, fr.k, fr.s, fr.w, fr.wl, fr.t, fr.xr0, fr.xw0, wpiece, pose)
 
 
 @nb.njit(cache=True, nogil=True)
 def friction_energy(e: float, nodes: np.ndarray, fr: Friction, wpiece: np.ndarray, pose: np.ndarray, eps_v: float) -> float:
     """``e`` plus the lagged friction's energy (J)."""
-    for c in range(fr.k.shape[0]):
-        ut = slip(c, nodes, fr, wpiece, pose)[6]
+    fk, fs, fw, fwl, ft, fmulam, fxr0, fxw0 = fr
+    for c in range(fk.shape[0]):
+        ut = slip_at(c, nodes, fk, fs, fw, fwl, ft, fxr0, fxw0, wpiece, pose)[6]
         f, _, _ = f0(abs(ut), eps_v)
-        e += fr.mulam[c] * f
+        e += fmulam[c] * f
     return e
 
 
@@ -239,13 +248,15 @@ def piece_grad_hess(grad: np.ndarray, hpp: np.ndarray, m: int, u: np.ndarray, pi
 
 
 # ---- barrier and friction: forces and Hessian parts --------------------------------------------
+# (the hot loops take the accumulators' arrays out of their bundle once, and the functions they call
+# take arrays: numba counts a reference for every array taken out of a tuple, which in a loop over the
+# contacts cost ten times the arithmetic)
 @nb.njit(cache=True, nogil=True)
-def record(acc: Accumulators, piece: int, k: int, c: tuple[float, float, float], g: tuple[float, float, float]) -> None:
+def record(rec: np.ndarray, nrec: np.ndarray, piece: int, k: int, c: tuple[float, float, float], g: tuple[float, float, float]) -> None:
     """Append a coupling of wall piece ``piece`` to the joints ``j <= k``: the joints-pieces block
     gains ``(a_j . c) g^T`` in the piece's three columns, ``a_j = (1, x_j, y_j)`` node ``j``'s
-    generator; a row of ``acc.rec`` is ``[piece, k, c, g]``, ``acc.nrec[0]`` the rows used."""
-    rec = acc.rec
-    r = acc.nrec[0]
+    generator; a row of ``rec`` is ``[piece, k, c, g]``, ``nrec[0]`` the rows used."""
+    r = nrec[0]
     rec[r, 0] = piece
     rec[r, 1] = k
     rec[r, 2] = c[0]
@@ -254,7 +265,7 @@ def record(acc: Accumulators, piece: int, k: int, c: tuple[float, float, float],
     rec[r, 5] = g[0]
     rec[r, 6] = g[1]
     rec[r, 7] = g[2]
-    acc.nrec[0] = r + 1
+    nrec[0] = r + 1
 
 
 @nb.njit(cache=True, nogil=True)
@@ -272,17 +283,17 @@ def _add_outer(d: np.ndarray, coef: float, g0: float, g1: float, g2: float) -> N
 
 
 @nb.njit(cache=True, nogil=True)
-def rank1(acc: Accumulators, nodes: np.ndarray, k: int, p: tuple[float, float], direction: tuple[float, float], piece: int,
-          centre: tuple[float, float], q: tuple[float, float], coef: float) -> None:
-    """Add ``coef g g^T`` for the gradient ``g`` of ``direction . (p - q)``.  Its robot part,
+def rank1(smat: np.ndarray, hjp: np.ndarray, hpp: np.ndarray, rec: np.ndarray, nrec: np.ndarray, nodes: np.ndarray, k: int,
+          line: tuple[float, float, float, float], piece: int, wall: tuple[float, float, float, float], coef: float) -> None:
+    """Add ``coef g g^T`` for the gradient ``g`` of ``dir . (p - q)`` (``line = (p, dir)``,
+    ``wall = (centre, q)``: the piece's current centre and the wall point).  Its robot part,
     ``g_j = (p - n_j) x dir = v . w_j`` for the joints ``j <= k`` with ``v = (p x dir, dir_y, dir_x)``
-    and ``w_j = (1, -n_jx, n_jy)``, goes into the 3 x 3 sums ``acc.smat[k]`` (summed from the tip and
+    and ``w_j = (1, -n_jx, n_jy)``, goes into the 3 x 3 sums ``smat[k]`` (summed from the tip and
     expanded by :mod:`evertgym.sim.kernel.potential` in O(m^2)); a wall piece's part (``-dir``,
-    ``-(q - centre) x dir``) goes into its block ``acc.hpp`` and its coupling to the joints into
-    ``acc.hjp`` directly, or, if ``acc.rec`` has rows, as one record (:func:`record`)."""
-    px, py = p
-    dirx, diry = direction
-    smat = acc.smat
+    ``-(q - centre) x dir``) goes into its block ``hpp`` and its coupling to the joints into ``hjp``
+    directly, or, if ``rec`` has rows, as one record (:func:`record`)."""
+    px, py, dirx, diry = line
+    cx, cy, qx, qy = wall
     v0 = px * diry - py * dirx
     v1 = diry
     v2 = dirx
@@ -299,101 +310,109 @@ def rank1(acc: Accumulators, nodes: np.ndarray, k: int, p: tuple[float, float], 
         return
     gp0 = -dirx
     gp1 = -diry
-    gp2 = -((q[0] - centre[0]) * diry - (q[1] - centre[1]) * dirx)
+    gp2 = -((qx - cx) * diry - (qy - cy) * dirx)
     o = 3 * piece
-    if acc.rec.shape[0] > 0:
-        record(acc, piece, k, (coef * v0, -coef * v1, coef * v2), (gp0, gp1, gp2))
+    if rec.shape[0] > 0:
+        record(rec, nrec, piece, k, (coef * v0, -coef * v1, coef * v2), (gp0, gp1, gp2))
     else:
-        hjp = acc.hjp
         for j in range(k + 1):
             gj = v0 - nodes[j, 0] * v1 + nodes[j, 1] * v2
             c = coef * gj
             hjp[j, o] += c * gp0
             hjp[j, o + 1] += c * gp1
             hjp[j, o + 2] += c * gp2
-    _add_outer(acc.hpp[piece], coef, gp0, gp1, gp2)
+    _add_outer(hpp[piece], coef, gp0, gp1, gp2)
 
 
 @nb.njit(cache=True, nogil=True)
-def apply_force(acc: Accumulators, k: int, s: float, p: tuple[float, float], q: tuple[float, float], f: tuple[float, float],
-                piece: int, pc0: np.ndarray, u: np.ndarray, e_tip: tuple[float, float]) -> tuple[float, float]:
-    """A wall force ``f`` (N) on the robot at ``p`` (parameter ``s`` of segment ``k``): into the
-    segment sums, the tip's reaction against growth (``-s f . e_tip``) and total force if ``k`` is the
-    tip segment, and the opposite force at ``q`` on wall piece ``piece`` (if any) into ``acc.grad``.
-    Returns the piece's current centre (0, 0 for a static wall)."""
-    px, py = p
-    fx, fy = f
-    m = acc.acc_m.shape[0]
-    acc.acc_f[k, 0] += fx
-    acc.acc_f[k, 1] += fy
-    acc.acc_m[k] += px * fy - py * fx
-    acc.acc_fx[k] += fx * px + fy * py
-    if k == m - 1:
-        acc.tip[0] -= s * (fx * e_tip[0] + fy * e_tip[1])
-        acc.tip[1] += fx
-        acc.tip[2] += fy
+def piece_centre(piece: int, pc0: np.ndarray, u: np.ndarray) -> tuple[float, float]:
+    """Wall piece ``piece``'s current centre (0, 0 for a static wall, ``piece < 0``)."""
     if piece < 0:
         return 0.0, 0.0
-    ccx = pc0[piece, 0] + u[piece, 0]
-    ccy = pc0[piece, 1] + u[piece, 1]
-    o = m + 3 * piece
-    acc.grad[o] += fx
-    acc.grad[o + 1] += fy
-    acc.grad[o + 2] += (q[0] - ccx) * fy - (q[1] - ccy) * fx
-    return ccx, ccy
+    return pc0[piece, 0] + u[piece, 0], pc0[piece, 1] + u[piece, 1]
 
 
 @nb.njit(cache=True, nogil=True)
-def _vertex_side(acc: Accumulators, k: int, p: tuple[float, float], q: tuple[float, float], n: tuple[float, float],
-                 fmag: float, dist: float, piece: int, centre: tuple[float, float]) -> None:
-    """The curvature of a wall vertex's distance to a segment's side: the distance to a line that
-    turns with the joints, ``d2D/dphi_i dphi_j = n . (p - n_min(i,j)) - D``, replaces the material
-    point's geometric stiffness (the contact point slides along the segment): ``acc_fx`` takes back
-    its ``f . p``, ``va`` and ``vf`` carry the rest (:func:`evertgym.sim.kernel.potential.chain_columns`);
-    a piece's vertex moves with the piece while the line turns with the joints."""
-    px, py = p
-    nx, ny = n
+def apply_force(acc_f: np.ndarray, acc_m: np.ndarray, acc_fx: np.ndarray, tip: np.ndarray, grad: np.ndarray, k: int, s: float,
+                pq: tuple[float, float, float, float], f: tuple[float, float], piece: int, centre: tuple[float, float],
+                e_tip: tuple[float, float]) -> None:
+    """A wall force ``f`` (N) on the robot at ``p`` (parameter ``s`` of segment ``k``; ``pq = (p, q)``):
+    into the segment sums, the tip's reaction against growth (``-s f . e_tip``) and total force if
+    ``k`` is the tip segment, and the opposite force at ``q`` on wall piece ``piece`` (if any, its
+    current centre ``centre``) into ``grad``."""
+    px, py, qx, qy = pq
+    fx, fy = f
+    m = acc_m.shape[0]
+    acc_f[k, 0] += fx
+    acc_f[k, 1] += fy
+    acc_m[k] += px * fy - py * fx
+    acc_fx[k] += fx * px + fy * py
+    if k == m - 1:
+        tip[0] -= s * (fx * e_tip[0] + fy * e_tip[1])
+        tip[1] += fx
+        tip[2] += fy
+    if piece < 0:
+        return
+    ccx, ccy = centre
+    o = m + 3 * piece
+    grad[o] += fx
+    grad[o + 1] += fy
+    grad[o + 2] += (qx - ccx) * fy - (qy - ccy) * fx
+
+
+@nb.njit(cache=True, nogil=True)
+def _vertex_side(acc_fx: np.ndarray, va: np.ndarray, vf: np.ndarray, hjp: np.ndarray, hpp: np.ndarray, rec: np.ndarray, nrec: np.ndarray,
+                 k: int, pq: tuple[float, float, float, float], nfd: tuple[float, float, float, float], piece: int,
+                 centre: tuple[float, float]) -> None:
+    """The curvature of a wall vertex's distance to a segment's side (``nfd = (n, fmag, dist)``): the
+    distance to a line that turns with the joints, ``d2D/dphi_i dphi_j = n . (p - n_min(i,j)) - D``,
+    replaces the material point's geometric stiffness (the contact point slides along the segment):
+    ``acc_fx`` takes back its ``f . p``, ``va`` and ``vf`` carry the rest
+    (:func:`evertgym.sim.kernel.potential.chain_columns`); a piece's vertex moves with the piece while
+    the line turns with the joints."""
+    px, py, qx, qy = pq
+    nx, ny, fmag, dist = nfd
     fx = fmag * nx
     fy = fmag * ny
-    acc.acc_fx[k] -= fx * px + fy * py
-    acc.va[k] += -(fx * px + fy * py) + fmag * dist
-    acc.vf[k, 0] += fx
-    acc.vf[k, 1] += fy
+    acc_fx[k] -= fx * px + fy * py
+    va[k] += -(fx * px + fy * py) + fmag * dist
+    vf[k, 0] += fx
+    vf[k, 1] += fy
     if piece < 0:
         return
     o = 3 * piece
     hx = -ny * fmag
     hy = nx * fmag
-    hr = fmag * (nx * (q[0] - centre[0]) + ny * (q[1] - centre[1]))
-    if acc.rec.shape[0] > 0:
-        record(acc, piece, k, (1.0, 0.0, 0.0), (hx, hy, hr))
+    hr = fmag * (nx * (qx - centre[0]) + ny * (qy - centre[1]))
+    if rec.shape[0] > 0:
+        record(rec, nrec, piece, k, (1.0, 0.0, 0.0), (hx, hy, hr))
     else:
         for j in range(k + 1):
-            acc.hjp[j, o] += hx
-            acc.hjp[j, o + 1] += hy
-            acc.hjp[j, o + 2] += hr
-    acc.hpp[piece, 2, 2] -= hr
+            hjp[j, o] += hx
+            hjp[j, o + 1] += hy
+            hjp[j, o + 2] += hr
+    hpp[piece, 2, 2] -= hr
 
 
 @nb.njit(cache=True, nogil=True)
-def _piece_side(acc: Accumulators, nodes: np.ndarray, k: int, p: tuple[float, float], n: tuple[float, float], fmag: float,
-                piece: int, centre: tuple[float, float]) -> None:
+def _piece_side(hjp: np.ndarray, hpp: np.ndarray, rec: np.ndarray, nrec: np.ndarray, nodes: np.ndarray, k: int, p: tuple[float, float],
+                n: tuple[float, float], fmag: float, piece: int, centre: tuple[float, float]) -> None:
     """The curvature of a robot node's distance to the side of a piece's segment: the line turns
     with the piece, ``D = R(theta) n0 . (x - c - u)``."""
     px, py = p
     nx, ny = n
     ccx, ccy = centre
-    d = acc.hpp[piece]
+    d = hpp[piece]
     d[0, 2] -= fmag * ny
     d[2, 0] -= fmag * ny
     d[1, 2] += fmag * nx
     d[2, 1] += fmag * nx
     d[2, 2] += fmag * (nx * (px - ccx) + ny * (py - ccy))
-    if acc.rec.shape[0] > 0:
-        record(acc, piece, k, (-fmag * (nx * px + ny * py), fmag * nx, fmag * ny), (0.0, 0.0, 1.0))
+    if rec.shape[0] > 0:
+        record(rec, nrec, piece, k, (-fmag * (nx * px + ny * py), fmag * nx, fmag * ny), (0.0, 0.0, 1.0))
     else:
         for j in range(k + 1):
-            acc.hjp[j, 3 * piece + 2] += -fmag * (nx * (px - nodes[j, 0]) + ny * (py - nodes[j, 1]))
+            hjp[j, 3 * piece + 2] += -fmag * (nx * (px - nodes[j, 0]) + ny * (py - nodes[j, 1]))
 
 
 @nb.njit(cache=True, nogil=True)
@@ -402,8 +421,11 @@ def barrier_forces(acc: Accumulators, nodes: np.ndarray, pairs: np.ndarray, geo:
     """The barrier's forces of the ``pairs`` (their geometry in ``geo``,
     :func:`evertgym.sim.kernel.geometry.pair_at`) into ``acc``, and if ``want_hess`` its Hessian
     parts: the rank-one term of the distance's gradient and the distance's own curvature."""
+    grad, acc_f, acc_m, acc_fx, tip, smat, va, vf, hjp, hpp, rec, nrec = acc
     dhat = contact.dhat
     kappa = contact.kappa
+    wpiece = walls.piece
+    wvertex = walls.vertex
     for c in range(pairs.shape[0]):
         k = pairs[c, 0]
         w = pairs[c, 1]
@@ -415,17 +437,19 @@ def barrier_forces(acc: Accumulators, nodes: np.ndarray, pairs: np.ndarray, geo:
         nx = (px - qx) / dist
         ny = (py - qy) / dist
         fmag = -kappa * b1  # > 0: pushes the robot away from the wall
-        p = walls.piece[w]
-        centre = apply_force(acc, k, s, (px, py), (qx, qy), (fmag * nx, fmag * ny), p, pc0, u, e_tip)
+        p = wpiece[w]
+        centre = piece_centre(p, pc0, u)
+        apply_force(acc_f, acc_m, acc_fx, tip, grad, k, s, (px, py, qx, qy), (fmag * nx, fmag * ny), p, centre, e_tip)
         if not want_hess:
             continue
-        rank1(acc, nodes, k, (px, py), (nx, ny), p, centre, (qx, qy), kappa * b2)
-        if walls.vertex[w] and 0.0 < s < 1.0:
-            _vertex_side(acc, k, (px, py), (qx, qy), (nx, ny), fmag, dist, p, centre)
-        elif point_point(s, (qx, qy), (cx, cy, dx, dy), walls.vertex[w]):  # the normal turns as p moves across
-            rank1(acc, nodes, k, (px, py), (-ny, nx), p, centre, (qx, qy), kappa * b1 / dist)
+        wall = (centre[0], centre[1], qx, qy)
+        rank1(smat, hjp, hpp, rec, nrec, nodes, k, (px, py, nx, ny), p, wall, kappa * b2)
+        if wvertex[w] and 0.0 < s < 1.0:
+            _vertex_side(acc_fx, va, vf, hjp, hpp, rec, nrec, k, (px, py, qx, qy), (nx, ny, fmag, dist), p, centre)
+        elif point_point(s, (qx, qy), (cx, cy, dx, dy), wvertex[w]):  # the normal turns as p moves across
+            rank1(smat, hjp, hpp, rec, nrec, nodes, k, (px, py, -ny, nx), p, wall, kappa * b1 / dist)
         elif p >= 0:
-            _piece_side(acc, nodes, k, (px, py), (nx, ny), fmag, p, centre)
+            _piece_side(hjp, hpp, rec, nrec, nodes, k, (px, py), (nx, ny), fmag, p, centre)
 
 
 @nb.njit(cache=True, nogil=True)
@@ -433,13 +457,16 @@ def friction_forces(acc: Accumulators, nodes: np.ndarray, fr: Friction, wpiece: 
                     u: np.ndarray, eps_v: float, e_tip: tuple[float, float], want_hess: bool) -> None:
     """The lagged friction's forces into ``acc``, and if ``want_hess`` the rank-one ``f1'`` term of
     each entry's 1-D tangent."""
-    for c in range(fr.k.shape[0]):
-        k, s, xr, yr, xw, yw, ut = slip(c, nodes, fr, wpiece, pose)
-        tx = fr.t[c, 0]
-        ty = fr.t[c, 1]
+    grad, acc_f, acc_m, acc_fx, tip, smat, _, _, hjp, hpp, rec, nrec = acc
+    fk, fs, fw, fwl, ft, fmulam, fxr0, fxw0 = fr
+    for c in range(fk.shape[0]):
+        k, s, xr, yr, xw, yw, ut = slip_at(c, nodes, fk, fs, fw, fwl, ft, fxr0, fxw0, wpiece, pose)
+        tx = ft[c, 0]
+        ty = ft[c, 1]
         _, f1y, df1 = f0(abs(ut), eps_v)
-        ff = -fr.mulam[c] * f1y * ut  # tangential force on the robot (along t)
-        p = wpiece[fr.w[c]]
-        centre = apply_force(acc, k, s, (xr, yr), (xw, yw), (ff * tx, ff * ty), p, pc0, u, e_tip)
+        ff = -fmulam[c] * f1y * ut  # tangential force on the robot (along t)
+        p = wpiece[fw[c]]
+        centre = piece_centre(p, pc0, u)
+        apply_force(acc_f, acc_m, acc_fx, tip, grad, k, s, (xr, yr, xw, yw), (ff * tx, ff * ty), p, centre, e_tip)
         if want_hess:
-            rank1(acc, nodes, k, (xr, yr), (tx, ty), p, centre, (xw, yw), fr.mulam[c] * df1)
+            rank1(smat, hjp, hpp, rec, nrec, nodes, k, (xr, yr, tx, ty), p, (centre[0], centre[1], xw, yw), fmulam[c] * df1)
