@@ -33,7 +33,7 @@ def _released(start_rad: float = 0.4, m: int = 10) -> tuple[qk.Problem, np.ndarr
 
 def _gaps(problem: qk.Problem, phi: np.ndarray) -> np.ndarray:
     nodes = qk.chain_nodes(0.0, np.zeros(2), phi, problem.chain.seg_len)[0]
-    return np.array([pair_at(nodes, k, 0, problem.chain.seg_rad, WALL, np.zeros((0, 4)))[10] for k in range(len(phi))])
+    return np.array([pair_at(nodes, k, 0, problem.chain.seg_rad, *WALL, np.zeros((0, 4)))[10] for k in range(len(phi))])
 
 
 def _no_friction() -> qk.Entries:

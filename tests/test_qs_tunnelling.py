@@ -46,7 +46,7 @@ def _gaps(nodes: np.ndarray) -> np.ndarray:
     """Gap (m) between each segment's surface and the wall line (its end points included)."""
     out = []
     for k in range(len(nodes) - 1):
-        gap = pair_at(nodes, k, 0, np.full(len(nodes) - 1, RAD_M), WALL, np.zeros((0, 4)))[10]
+        gap = pair_at(nodes, k, 0, np.full(len(nodes) - 1, RAD_M), *WALL, np.zeros((0, 4)))[10]
         out.append(gap)
     return np.array(out)
 

@@ -75,12 +75,13 @@ def step_bound(nodes0: np.ndarray, nodes1: np.ndarray, u0: np.ndarray, u1: np.nd
     none of the ``pairs`` (k, w) touches (:func:`pair_toi`); 1 if the whole step is free."""
     pose0 = poses(pc0, u0)
     pose1 = poses(pc0, u1)
+    wa, wb, wpiece, wvertex, wradius = walls
     out = 1.0
     for c in range(pairs.shape[0]):
         k = pairs[c, 0]
         w = pairs[c, 1]
         ab0 = (nodes0[k, 0], nodes0[k, 1], nodes0[k + 1, 0], nodes0[k + 1, 1])
         ab1 = (nodes1[k, 0], nodes1[k, 1], nodes1[k + 1, 0], nodes1[k + 1, 1])
-        out = min(out, pair_toi(ab0, ab1, wall_world(w, walls, pose0), wall_world(w, walls, pose1), walls.vertex[w],
-                                seg_rad[k] + walls.radius[w]))
+        out = min(out, pair_toi(ab0, ab1, wall_world(w, wa, wb, wpiece, pose0), wall_world(w, wa, wb, wpiece, pose1), wvertex[w],
+                                seg_rad[k] + wradius[w]))
     return out

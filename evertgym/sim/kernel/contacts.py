@@ -30,13 +30,14 @@ CIRCLE_SLACK_M = 1e-9
 def _feature_circles(walls: Walls, pose: np.ndarray, grow: float) -> np.ndarray:
     """Each wall feature's bounding circle ``(x, y, r)`` now, its radius grown by its shape's radius
     and ``grow`` (m)."""
-    nw = walls.a.shape[0]
+    wa, wb, wpiece, _, wradius = walls
+    nw = wa.shape[0]
     circ = np.empty((nw, 3))
     for w in range(nw):
-        cx, cy, dx, dy = wall_world(w, walls, pose)
+        cx, cy, dx, dy = wall_world(w, wa, wb, wpiece, pose)
         circ[w, 0] = 0.5 * (cx + dx)
         circ[w, 1] = 0.5 * (cy + dy)
-        circ[w, 2] = 0.5 * math.sqrt((dx - cx) ** 2 + (dy - cy) ** 2) + walls.radius[w] + grow
+        circ[w, 2] = 0.5 * math.sqrt((dx - cx) ** 2 + (dy - cy) ** 2) + wradius[w] + grow
     return circ
 
 
@@ -110,12 +111,14 @@ def pair_rows(chain: Chain, phi: np.ndarray, walls: Walls, pc0: np.ndarray, u: n
     """:func:`contacts` restricted to the candidate pairs ``cand`` (k, w)."""
     nodes = window_nodes(chain, phi)
     pose = poses(pc0, u)
+    seg_rad = chain.seg_rad
+    wa, wb, wpiece, wvertex, wradius = walls
     out = np.empty((cand.shape[0], ROW_COLUMNS))
     cnt = 0
     for c in range(cand.shape[0]):
         k = cand[c, 0]
         w = cand[c, 1]
-        _, _, _, _, s, px, py, qx, qy, dist, gap = pair_at(nodes, k, w, chain.seg_rad, walls, pose)
+        _, _, _, _, s, px, py, qx, qy, dist, gap = pair_at(nodes, k, w, seg_rad, wa, wb, wpiece, wvertex, wradius, pose)
         if gap >= dhat + margin:
             continue
         out[cnt, 0] = k
@@ -166,8 +169,9 @@ def near_pairs(nodes: np.ndarray, pairs: np.ndarray, seg_rad: np.ndarray, walls:
     keep = np.empty(pairs.shape[0], np.bool_)
     cnt = 0
     pose = poses(pc0, u)
+    wa, wb, wpiece, wvertex, wradius = walls
     for c in range(pairs.shape[0]):
-        keep[c] = pair_at(nodes, pairs[c, 0], pairs[c, 1], seg_rad, walls, pose)[10] < reach
+        keep[c] = pair_at(nodes, pairs[c, 0], pairs[c, 1], seg_rad, wa, wb, wpiece, wvertex, wradius, pose)[10] < reach
         cnt += keep[c]
     out = np.empty((cnt, 2), np.int64)
     cnt = 0
@@ -219,6 +223,7 @@ def overlaps(chain: Chain, phi: np.ndarray, feats: np.ndarray, box_lo: np.ndarra
     blocks = block_boxes(nodes, seg_rad)
     pose = np.empty((u.shape[0], 4))
     have = np.zeros(u.shape[0], np.bool_)
+    wa, wb, wpiece, wvertex, wradius = walls
     for w in feats:
         # a wall piece's box covers its whole travel: its feature where it is now (grown by its radius)
         # is a tighter test before the exact one
@@ -228,10 +233,10 @@ def overlaps(chain: Chain, phi: np.ndarray, feats: np.ndarray, box_lo: np.ndarra
             bb = (blocks[b, 0], blocks[b, 1], blocks[b, 2], blocks[b, 3])
             if _disjoint(fb, bb):
                 continue
-            if not posed and walls.piece[w] >= 0:
-                lazy_pose(pose, have, w, walls.piece, pc0, u)
-                cx, cy, dx, dy = wall_world(w, walls, pose)
-                rw = walls.radius[w]
+            if not posed and wpiece[w] >= 0:
+                lazy_pose(pose, have, w, wpiece, pc0, u)
+                cx, cy, dx, dy = wall_world(w, wa, wb, wpiece, pose)
+                rw = wradius[w]
                 fb = (min(cx, dx) - rw, max(cx, dx) + rw, min(cy, dy) - rw, max(cy, dy) + rw)
                 posed = True
                 if _disjoint(fb, bb):
@@ -239,8 +244,8 @@ def overlaps(chain: Chain, phi: np.ndarray, feats: np.ndarray, box_lo: np.ndarra
             for k in range(min(m, (b + 1) * BLOCK) - 1, b * BLOCK - 1, -1):
                 if _disjoint(fb, segment_box(nodes, k, seg_rad[k])):
                     continue
-                lazy_pose(pose, have, w, walls.piece, pc0, u)
-                if pair_at(nodes, k, w, seg_rad, walls, pose)[10] <= 0.0:
+                lazy_pose(pose, have, w, wpiece, pc0, u)
+                if pair_at(nodes, k, w, seg_rad, wa, wb, wpiece, wvertex, wradius, pose)[10] <= 0.0:
                     return True
     return False
 
@@ -254,13 +259,14 @@ def touching(nodes: np.ndarray, seg_rad: np.ndarray, box_lo: np.ndarray, box_hi:
     out = np.zeros(nf, np.bool_)
     pose = np.empty((u.shape[0], 4))
     have = np.zeros(u.shape[0], np.bool_)
+    wa, wb, wpiece, wvertex, wradius = walls
     for k in range(seg_rad.shape[0]):
         lx, hx, ly, hy = segment_box(nodes, k, seg_rad[k] + reach)
         for w in range(nf):
             if out[w] or box_hi[w, 0] < lx or box_lo[w, 0] > hx or box_hi[w, 1] < ly or box_lo[w, 1] > hy:
                 continue
-            lazy_pose(pose, have, w, walls.piece, pc0, u)
-            if pair_at(nodes, k, w, seg_rad, walls, pose)[10] < reach:
+            lazy_pose(pose, have, w, wpiece, pc0, u)
+            if pair_at(nodes, k, w, seg_rad, wa, wb, wpiece, wvertex, wradius, pose)[10] < reach:
                 out[w] = True
     return out
 

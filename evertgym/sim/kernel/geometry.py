@@ -155,12 +155,12 @@ def lazy_pose(pose: np.ndarray, have: np.ndarray, w: int, wpiece: np.ndarray, pc
 
 
 @nb.njit(cache=True, nogil=True)
-def wall_world(w: int, walls: Walls, pose: np.ndarray) -> tuple[float, float, float, float]:
-    """World end points of wall segment ``w`` (static: as stored; a piece's: moved with it, by its
-    :func:`poses` row)."""
-    wa = walls.a
-    wb = walls.b
-    p = walls.piece[w]
+def wall_world(w: int, wa: np.ndarray, wb: np.ndarray, wpiece: np.ndarray, pose: np.ndarray) -> tuple[float, float, float, float]:
+    """World end points of wall segment ``w`` (:class:`~evertgym.sim.kernel.bundles.Walls`' ``a``, ``b``,
+    ``piece``; static: as stored; a piece's: moved with it, by its :func:`poses` row).  The functions
+    called per pair take the walls' arrays, not their bundle: numba counts a reference for every
+    array taken out of a tuple, which in a loop over the pairs costs more than the arithmetic."""
+    p = wpiece[w]
     if p < 0:
         return wa[w, 0], wa[w, 1], wb[w, 0], wb[w, 1]
     c = pose[p, 0]
@@ -184,14 +184,15 @@ def wall_point(w: int, lx: float, ly: float, wpiece: np.ndarray, pose: np.ndarra
 
 
 @nb.njit(cache=True, nogil=True)
-def pair_at(nodes: np.ndarray, k: int, w: int, seg_rad: np.ndarray, walls: Walls,
+def pair_at(nodes: np.ndarray, k: int, w: int, seg_rad: np.ndarray, wa: np.ndarray, wb: np.ndarray, wpiece: np.ndarray,
+            wvertex: np.ndarray, wradius: np.ndarray,
             pose: np.ndarray) -> tuple[float, float, float, float, float, float, float, float, float, float, float]:
-    """Pair ``(k, w)`` now (the pieces at ``pose``, :func:`poses`): the wall feature's end points,
-    then :func:`point_edge`'s ``(s, px, py, qx, qy, dist)`` and the gap between the surfaces (m)."""
-    cx, cy, dx, dy = wall_world(w, walls, pose)
-    s, px, py, qx, qy, dist = point_edge((nodes[k, 0], nodes[k, 1], nodes[k + 1, 0], nodes[k + 1, 1]), (cx, cy, dx, dy),
-                                         walls.vertex[w])
-    return cx, cy, dx, dy, s, px, py, qx, qy, dist, dist - seg_rad[k] - walls.radius[w]
+    """Pair ``(k, w)`` now (the walls' arrays as in :class:`~evertgym.sim.kernel.bundles.Walls`, the
+    pieces at ``pose``, :func:`poses`): the wall feature's end points, then :func:`point_edge`'s
+    ``(s, px, py, qx, qy, dist)`` and the gap between the surfaces (m)."""
+    cx, cy, dx, dy = wall_world(w, wa, wb, wpiece, pose)
+    s, px, py, qx, qy, dist = point_edge((nodes[k, 0], nodes[k, 1], nodes[k + 1, 0], nodes[k + 1, 1]), (cx, cy, dx, dy), wvertex[w])
+    return cx, cy, dx, dy, s, px, py, qx, qy, dist, dist - seg_rad[k] - wradius[w]
 
 
 @nb.njit(cache=True, nogil=True)
@@ -215,11 +216,10 @@ def max_node_shift(chain: Chain, phi: np.ndarray, ref: np.ndarray) -> float:
 def piece_reach(walls: Walls, npc: int) -> np.ndarray:
     """Per wall piece: the largest distance (m) of its features' end points from its origin (a
     rotation by ``dtheta`` moves none of them by more than this times ``|dtheta|``)."""
-    wa = walls.a
-    wb = walls.b
+    wa, wb, wpiece, _, _ = walls
     rho = np.zeros(npc)
     for w in range(wa.shape[0]):
-        p = walls.piece[w]
+        p = wpiece[w]
         if p >= 0:
             rho[p] = max(rho[p], math.sqrt(wa[w, 0] ** 2 + wa[w, 1] ** 2), math.sqrt(wb[w, 0] ** 2 + wb[w, 1] ** 2))
     return rho

@@ -186,10 +186,22 @@ def collision_free(problem: Problem, lst: Listing, nodes: np.ndarray, u: np.ndar
     """The fraction (0-1] of the step from ``nodes``, ``u`` to the trial along which no pair touches
     (:func:`~evertgym.sim.kernel.ccd.step_bound`).  The near pairs suffice while both ends lie within
     :data:`NEAR_MARGIN_M` of where they were listed (every point of the straight-line step does
-    then, and the other pairs' gaps stay positive); else every candidate is checked."""
+    then, and the other pairs' gaps stay positive), and of those only the ones whose gap at the trial
+    is within the step's largest displacement; else every candidate is checked."""
     near_enough = moved(nodes, lst.ref_nodes, u, lst.ref_u, rho) <= NEAR_MARGIN_M - NEAR_SLACK_M
-    pairs = lst.near if near_enough else lst.pairs
+    pairs = _closer_than(lst.near, lst.geo, moved(trial_nodes, nodes, u_try, u, rho)) if near_enough else lst.pairs
     return step_bound(nodes, trial_nodes, u, u_try, pairs, problem.chain.seg_rad, problem.walls, problem.pieces.pc0)
+
+
+@nb.njit(cache=True, nogil=True)
+def _closer_than(pairs: np.ndarray, geo: np.ndarray, reach: float) -> np.ndarray:
+    """The pairs whose gap at the trial (``geo``, as the trial's energy left it) is at most ``reach``,
+    the largest relative displacement of any of their points on the way: the others' gaps stay
+    positive all along the step."""
+    keep = np.empty(pairs.shape[0], np.bool_)
+    for c in range(pairs.shape[0]):
+        keep[c] = geo[c, 10] <= reach
+    return pairs[keep]
 
 
 @nb.njit(cache=True, nogil=True)

@@ -34,8 +34,10 @@ GEO_COLUMNS = 11
 @nb.njit(cache=True, nogil=True)
 def pair_geometry(nodes: np.ndarray, pairs: np.ndarray, problem: Problem, pose: np.ndarray, geo: np.ndarray) -> None:
     """Each pair's :func:`~evertgym.sim.kernel.geometry.pair_at` into row ``c`` of ``geo``."""
+    seg_rad = problem.chain.seg_rad
+    wa, wb, wpiece, wvertex, wradius = problem.walls
     for c in range(pairs.shape[0]):
-        g = pair_at(nodes, pairs[c, 0], pairs[c, 1], problem.chain.seg_rad, problem.walls, pose)
+        g = pair_at(nodes, pairs[c, 0], pairs[c, 1], seg_rad, wa, wb, wpiece, wvertex, wradius, pose)
         for i in range(GEO_COLUMNS):
             geo[c, i] = g[i]
 

@@ -35,13 +35,10 @@ from evertgym.sim.kernel.geometry import point_point, wall_point
 
 # ---- joint law ---------------------------------------------------------------------------------
 @nb.njit(cache=True, nogil=True)
-def law_eval(x: float, law: LawTable) -> tuple[float, float, float]:
-    """Normalised wrinkled law at curvature ratio ``x >= 1``: ``(h, dh/dx, H)`` with ``h = M / M_c``
-    and ``H = int_1^x h``; tabulated in ``ln x`` on a uniform grid, linear beyond its end."""
-    table_u = law.u
-    table_h = law.h
-    table_hi = law.hi
-    slope_tail = law.slope
+def law_eval(x: float, table_u: np.ndarray, table_h: np.ndarray, table_hi: np.ndarray, slope_tail: float) -> tuple[float, float, float]:
+    """Normalised wrinkled law at curvature ratio ``x >= 1`` (the table of
+    :class:`~evertgym.sim.kernel.bundles.LawTable`): ``(h, dh/dx, H)`` with ``h = M / M_c`` and
+    ``H = int_1^x h``; tabulated in ``ln x`` on a uniform grid, linear beyond its end."""
     u = math.log(x)
     du = table_u[1] - table_u[0]
     n = table_u.shape[0]
@@ -64,19 +61,23 @@ def law_eval(x: float, law: LawTable) -> tuple[float, float, float]:
 
 
 @nb.njit(cache=True, nogil=True)
-def joint_law(phi: float, k: float, mw: float, law: LawTable) -> tuple[float, float, float]:
-    """``(W, M, dM/dphi)`` of one joint: energy (J), moment (N m) and tangent stiffness (N m/rad).
-    Linear ``k phi`` up to the wrinkling moment ``mw``, then ``M_c h(phi / phi_w)`` (the
-    tension-field law with its kink plateau, ``M_c = 2 mw``), never below ``residual k phi``."""
+def joint_law(phi: float, k: float, mw: float, table_u: np.ndarray, table_h: np.ndarray, table_hi: np.ndarray, slope_tail: float,
+              residual: float) -> tuple[float, float, float]:
+    """``(W, M, dM/dphi)`` of one joint (the law's table and residual stiffness fraction as in
+    :class:`~evertgym.sim.kernel.bundles.LawTable`): energy (J), moment (N m) and tangent stiffness
+    (N m/rad).  Linear ``k phi`` up to the wrinkling moment ``mw``, then ``M_c h(phi / phi_w)`` (the
+    tension-field law with its kink plateau, ``M_c = 2 mw``), never below ``residual k phi``.  (The
+    functions called per joint take arrays, not the bundle: numba counts a reference for every array
+    taken out of a tuple.)"""
     if mw <= 0.0:
-        kr = law.residual * k
+        kr = residual * k
         return 0.5 * kr * phi * phi, kr * phi, kr
     phiw = mw / k
     a = abs(phi)
     if a <= phiw:
         return 0.5 * k * phi * phi, k * phi, k
     mc = 2.0 * mw
-    h, dh, hi = law_eval(a / phiw, law)
+    h, dh, hi = law_eval(a / phiw, table_u, table_h, table_hi, slope_tail)
     s = 1.0 if phi > 0 else -1.0
     return 0.5 * k * phiw * phiw + mc * phiw * hi, s * mc * h, mc * dh / phiw
 
@@ -84,8 +85,10 @@ def joint_law(phi: float, k: float, mw: float, law: LawTable) -> tuple[float, fl
 @nb.njit(cache=True, nogil=True)
 def joint_energy(e: float, phi: np.ndarray, joints: Joints, law: LawTable) -> float:
     """``e`` plus the joints' energy (J) at ``phi``."""
+    k, mw = joints
+    lu, lh, lhi, slope, residual = law
     for j in range(phi.shape[0]):
-        w_, _, _ = joint_law(phi[j], joints.k[j], joints.mw[j], law)
+        w_, _, _ = joint_law(phi[j], k[j], mw[j], lu, lh, lhi, slope, residual)
         e += w_
     return e
 
@@ -94,8 +97,10 @@ def joint_energy(e: float, phi: np.ndarray, joints: Joints, law: LawTable) -> fl
 def joint_moments(phi: np.ndarray, joints: Joints, law: LawTable) -> np.ndarray:
     """Moments (N m) of joints at ``phi`` (rad) under :func:`joint_law`."""
     out = np.empty(phi.shape[0])
+    k, mw = joints
+    lu, lh, lhi, slope, residual = law
     for j in range(phi.shape[0]):
-        out[j] = joint_law(phi[j], joints.k[j], joints.mw[j], law)[1]
+        out[j] = joint_law(phi[j], k[j], mw[j], lu, lh, lhi, slope, residual)[1]
     return out
 
 
@@ -103,8 +108,10 @@ def joint_moments(phi: np.ndarray, joints: Joints, law: LawTable) -> np.ndarray:
 def joint_grad_hess(grad: np.ndarray, diag: np.ndarray, phi: np.ndarray, joints: Joints, law: LawTable, want_hess: bool) -> None:
     """The joints' moments into ``grad[:m]`` and, if ``want_hess``, their stiffnesses into ``diag``
     (the Hessian is diagonal in the joints' own law)."""
+    k, mw = joints
+    lu, lh, lhi, slope, residual = law
     for j in range(phi.shape[0]):
-        _, mj, dmj = joint_law(phi[j], joints.k[j], joints.mw[j], law)
+        _, mj, dmj = joint_law(phi[j], k[j], mw[j], lu, lh, lhi, slope, residual)
         grad[j] += mj
         if want_hess:
             diag[j] += dmj
