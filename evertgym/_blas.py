@@ -1,6 +1,6 @@
 """One BLAS thread where the quasi-static engine's answers are computed, whatever the machine.
 
-The compiled kernel (:mod:`evertgym.sim.qs_kernel`) eliminates the colon's wall pieces with a
+The compiled kernel (:mod:`evertgym.sim.kernel`) eliminates the colon's wall pieces with a
 Schur complement whose matrix products numba hands to scipy's OpenBLAS.  OpenBLAS splits a
 product over as many threads as the process may use, and a split sums in another order: measured
 on a 2-core machine, 100 random-action Colon-v0 steps gave other observation bits with 2 BLAS

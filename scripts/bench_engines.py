@@ -66,8 +66,8 @@ def run(env_id: str, sim: dict, steps: int, seed: int) -> dict:
 #: Where a quasi-static env step's time goes: (label, predicate on a profiled function's
 #: (file, name)); a function's own time counts in the first group it matches, the rest is "other".
 _GROUPS = (
-    ("compiled Newton solve (qs_kernel.solve_increment)", lambda f, n: f.endswith("qs_kernel.py") and n == "solve_increment"),
-    ("wall selection and overlap checks (compiled)", lambda f, n: f.endswith("qs_kernel.py")),
+    ("compiled Newton solve (kernel.solve_increment)", lambda f, n: "/sim/kernel/" in f and n == "solve_increment"),
+    ("wall selection and overlap checks (compiled)", lambda f, n: "/sim/kernel/" in f),
     ("window setup and commit (QuasiStaticSim._solve_window)", lambda f, n: f.endswith("quasistatic.py") and n == "_solve_window"),
     ("growth increments, cut-backs, events (quasistatic.py)", lambda f, n: f.endswith("quasistatic.py")),
     ("clock: regulator, growth law, radii (tube.py, growth.py, section.py)",
@@ -141,7 +141,7 @@ def wall_shares(env_id: str, steps: int, seed: int = 0) -> dict:
     import numpy as np
 
     from evertgym.env.bench import random_steps
-    from evertgym.sim import qs_kernel
+    from evertgym.sim import kernel
     from evertgym.sim.quasistatic import QuasiStaticSim
 
     acc = dict.fromkeys(("kernel", "select", "window", "engine"), 0.0)
@@ -160,9 +160,9 @@ def wall_shares(env_id: str, steps: int, seed: int = 0) -> dict:
         setattr(owner, name, wrapper)
 
     env = _warm_env(env_id, seed)
-    timed(qs_kernel, "solve_increment", "kernel")
-    timed(qs_kernel, "select_features", "select")
-    timed(qs_kernel, "overlaps", "select")
+    timed(kernel, "solve_increment", "kernel")
+    timed(kernel, "select_features", "select")
+    timed(kernel, "overlaps", "select")
     timed(QuasiStaticSim, "_solve_window", "window")
     timed(QuasiStaticSim, "step", "engine")
     try:
@@ -170,7 +170,7 @@ def wall_shares(env_id: str, steps: int, seed: int = 0) -> dict:
     finally:
         for owner, name, inner in saved:
             setattr(owner, name, inner)
-    shares = {"compiled solve (qs_kernel.solve_increment)": acc["kernel"],
+    shares = {"compiled solve (kernel.solve_increment)": acc["kernel"],
               "wall selection and overlap tests (compiled, called per solve)": acc["select"],
               "a solve's Python set-up and commit (_solve_window)": acc["window"] - acc["kernel"] - acc["select"],
               "the rest of the engine (clock, growth increments, events)": acc["engine"] - acc["window"],

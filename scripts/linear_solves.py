@@ -32,6 +32,18 @@ def _best_us(fn, args: tuple, repeats: int) -> float:
     return best * 1e6
 
 
+def _copied(value):
+    """``value`` with every array in it (nested in the kernel's bundles) copied."""
+    import numpy as np
+
+    if isinstance(value, np.ndarray):
+        return value.copy()
+    if isinstance(value, tuple):
+        items = [_copied(v) for v in value]
+        return type(value)(*items) if hasattr(value, "_fields") else tuple(items)
+    return value
+
+
 def capture(env_id: str, steps: int, min_iterations: int, every: int, limit: int) -> list[tuple]:
     """The arguments of the kept solves (copied before the solve changes them)."""
     import gymnasium as gym
@@ -47,9 +59,9 @@ def capture(env_id: str, steps: int, min_iterations: int, every: int, limit: int
     seen = [0]
 
     def keep(*args):
-        start = tuple(a.copy() if isinstance(a, np.ndarray) else a for a in args)
+        start = _copied(args)
         out = inner(*args)
-        if out[1] >= min_iterations and len(kept) < limit:
+        if out.iterations >= min_iterations and len(kept) < limit:
             if seen[0] % every == 0:
                 kept.append(start)
             seen[0] += 1
@@ -72,24 +84,25 @@ def compare(args: tuple, repeats: int) -> dict:
     """Both solvers at one kept state (see the module's docstring)."""
     import numpy as np
 
-    from evertgym.sim import qs_kernel as qk
+    from evertgym.sim import kernel as qk
+    from evertgym.sim.kernel import linear, newton, potential
+    from evertgym.sim.kernel.contacts import rows_to_pairs, rows_where
+    from evertgym.sim.kernel.friction import resolve
 
-    (theta0, n0, phi, phi_ref, seg_len, seg_rad, s_nodes, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual,
-     wa, wb, wpiece, wvert, wrad, _wall_mu, _robot_mu, pc0, u, kaa, fh, travel, k_travel, e_s, e_w, e_wl, e_t, e_ml,
-     dhat, kappa, eps_v, *_rest) = args
-    max_move = args[-3]
-    start_nodes, _ = qk.chain_nodes(theta0, n0, phi_ref, seg_len)
-    fr_k, fr_s, fr_xr0, fr_xw0 = qk._friction_inputs(e_s, e_w, e_wl, start_nodes, s_nodes, seg_len, wpiece, pc0, u)
-    rows = qk.contacts(theta0, n0, phi, seg_len, seg_rad, wa, wb, wpiece, wvert, wrad, pc0, u, dhat, 2.0 * max_move + dhat)
-    near = qk._rows_to_pairs(qk._rows_where(rows, dhat + qk._NEAR_MARGIN_M))
-    nodes, _ = qk.chain_nodes(theta0, n0, phi, seg_len)
+    problem, phi, phi_ref, u, s_nodes, _robot_mu, _wall_mu, entries, settings = args
+    chain, walls, dhat = problem.chain, problem.walls, problem.contact.dhat
+    start_nodes, _ = qk.chain_nodes(chain.theta0, chain.n0, phi_ref, chain.seg_len)
+    fr = resolve(entries, start_nodes, s_nodes, chain.seg_len, walls.piece, problem.pieces.pc0, u)
+    rows = qk.contacts(chain, phi, walls, problem.pieces.pc0, u, dhat, 2.0 * settings.max_move + dhat)
+    near = rows_to_pairs(rows_where(rows, dhat + newton.NEAR_MARGIN_M))
+    nodes, _ = qk.chain_nodes(chain.theta0, chain.n0, phi, chain.seg_len)
     geo = np.empty((len(near), 11))
-    common = (nodes, phi, seg_len, seg_rad, k_j, mw_j, law_u, law_h, law_hi, law_slope, residual, wa, wb, wpiece, wvert, wrad,
-              pc0, u, near, kaa, fh, travel, k_travel, fr_k, fr_s, e_w, e_wl, e_t, e_ml, fr_xr0, fr_xw0, dhat, kappa, eps_v)
-    qk.energy(*common, geo)
-    grad, hess, _, hjp, hpp = qk.grad_hess(*common, True, False, geo)
-    grad2, _, gen, rec, hpp2 = qk.grad_hess(*common, True, True, geo)
+    common = (problem, phi, u, nodes, near, fr, geo)
+    potential.energy(*common)
+    grad, (hess, _, hjp, hpp) = potential.grad_hess(*common, True, False)
+    grad2, (_, gen, rec, hpp2) = potential.grad_hess(*common, True, True)
     m, npc = len(phi), len(u)
+    wa = walls.a
     lo: dict[int, int] = {}
     hi: dict[int, int] = {}
     for r in rec:
@@ -100,15 +113,15 @@ def compare(args: tuple, repeats: int) -> dict:
     out = {"joints": m, "pieces": npc, "features": len(wa), "candidates": len(rows), "one_segment": spans.count(0), "two_segments": spans.count(1),
            "wider": sum(1 for s in spans if s > 1), "same_gradient": bool(np.array_equal(grad, grad2))}
     for mu0 in (0.0, 1.0):
-        x_d, mu_d = qk._schur_solve(hess, hjp, hpp, -grad, m, npc, mu0)
-        x_s, mu_s = qk._semi_schur_solve(gen, rec, hpp2, -grad, m, npc, mu0)
+        x_d, mu_d = linear.schur_solve(hess, hjp, hpp, -grad, m, npc, mu0)
+        x_s, mu_s = linear.semi_schur_solve(gen, rec, hpp2, -grad, m, npc, mu0)
         tag = "from_zero" if mu0 == 0.0 else "from_one"
         out[f"same_shift_{tag}"] = bool(mu_d == mu_s)
         out[f"step_difference_{tag}"] = float(np.max(np.abs(x_d - x_s)) / max(np.max(np.abs(x_d)), 1e-300))
-        out[f"dense_us_{tag}"] = _best_us(qk._schur_solve, (hess, hjp, hpp, -grad, m, npc, mu0), repeats)
-        out[f"semi_us_{tag}"] = _best_us(qk._semi_schur_solve, (gen, rec, hpp2, -grad, m, npc, mu0), repeats)
-    out["assembly_dense_us"] = _best_us(qk.grad_hess, (*common, True, False, geo), repeats)
-    out["assembly_semi_us"] = _best_us(qk.grad_hess, (*common, True, True, geo), repeats)
+        out[f"dense_us_{tag}"] = _best_us(linear.schur_solve, (hess, hjp, hpp, -grad, m, npc, mu0), repeats)
+        out[f"semi_us_{tag}"] = _best_us(linear.semi_schur_solve, (gen, rec, hpp2, -grad, m, npc, mu0), repeats)
+    out["assembly_dense_us"] = _best_us(potential.grad_hess, (*common, True, False), repeats)
+    out["assembly_semi_us"] = _best_us(potential.grad_hess, (*common, True, True), repeats)
     return out
 
 

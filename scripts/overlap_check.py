@@ -23,12 +23,12 @@ import numpy as np
 def smallest_gap(sim) -> tuple[float, int, int]:
     """The committed state's smallest gap (m) between a robot segment and any wall feature, with the
     segment and the feature (1 m and -1, -1 if no feature is within 10 mm)."""
-    from evertgym.sim import qs_kernel as qk
+    from evertgym.sim import kernel as qk
 
     nodes = sim.centreline()
     w = sim._walls
-    rows = qk.contacts(sim.base_angle, nodes[0].copy(), sim.phi.copy(), sim.seg_len.copy(), sim.seg_rad.copy(), w.a, w.b, w.piece,
-                       w.vertex, w.radius, sim._pc0, sim._u_all, 1e-3, 0.01)
+    chain = qk.Chain(sim.base_angle, nodes[0].copy(), sim.seg_len.copy(), sim.seg_rad.copy())
+    rows = qk.contacts(chain, sim.phi.copy(), qk.Walls(w.a, w.b, w.piece, w.vertex, w.radius), sim._pc0, sim._u_all, 1e-3, 0.01)
     if len(rows) == 0:
         return 1.0, -1, -1
     i = int(np.argmin(rows[:, 10]))

@@ -1,7 +1,7 @@
 """The quasi-static engine's compiled gathers give the same bits as the numpy expressions they replaced.
 
 A solve's set-up (the window's wall features, its lagged friction entries, how far a solve moved the
-nodes, the kinked joints) moved from numpy expressions into :mod:`evertgym.sim.qs_kernel` (about 50
+nodes, the kinked joints) moved from numpy expressions into :mod:`evertgym.sim.kernel` (about 50
 numpy calls per solve).  The answers must not move by a bit, or the shipped policies would no longer
 retrain exactly from their configs: these tests hold each helper to its numpy original on random input.
 """
@@ -12,9 +12,10 @@ import numpy as np
 import pytest
 
 from evertgym.model.pressure import KINK_MOMENT_FRACTION
-from evertgym.sim import qs_kernel as qk
-from evertgym.sim.discretize import RESIDUAL_STIFFNESS_FRACTION
-from evertgym.sim.quasistatic import _LAW
+from evertgym.sim import kernel as qk
+from evertgym.sim.kernel import linear
+from evertgym.sim.kernel.geometry import closest
+from evertgym.sim.quasistatic import _LAW_TABLE
 
 
 def test_the_window_friction_entries_are_those_numpy_selected():
@@ -36,7 +37,8 @@ def test_the_window_friction_entries_are_those_numpy_selected():
         sel_pos = np.full(n_walls, -1, np.int64)
         sel_pos[sel] = np.arange(len(sel))
         mine = in_window & (sel_pos[wall] >= 0)
-        got = qk.window_friction(s, wall, wl, t, ml, sel, ds, n, a)
+        got_in, got_e = qk.window_friction(qk.Entries(s, wall, wl, t, ml), sel, ds, n, a)
+        got = (got_in, *got_e)
         want = (in_window, s[mine], sel_pos[wall[mine]], wl[mine], t[mine], ml[mine])
         for g, w in zip(got, want):
             assert g.dtype == w.dtype and g.shape == w.shape and np.array_equal(g, w)
@@ -49,7 +51,8 @@ def test_the_gathered_wall_features_are_numpy_fancy_indexing():
               rng.random(nw) < 0.5, rng.random(nw), rng.random(nw))
     for k in (0, 1, 37, nw):
         sel = np.sort(rng.choice(nw, size=k, replace=False)).astype(np.int64)
-        for g, arr in zip(qk.gather_walls(sel, *arrays), arrays):
+        walls, mu = qk.gather_walls(sel, qk.SceneWalls(qk.Walls(*arrays[:5]), np.zeros((nw, 2)), np.zeros((nw, 2)), arrays[5]))
+        for g, arr in zip((*walls, mu), arrays):
             assert g.dtype == arr.dtype and np.array_equal(g, arr[sel])
 
 
@@ -61,7 +64,7 @@ def test_the_largest_node_shift_is_numpys_hypot_maximum():
         theta0, n0 = float(rng.normal()), rng.normal(size=2)
         ref = qk.chain_nodes(theta0, n0, phi + rng.normal(scale=1e-3, size=m), seg_len)[0]
         want = float(np.max(np.hypot(*(qk.chain_nodes(theta0, n0, phi, seg_len)[0] - ref).T)))
-        assert qk.max_node_shift(theta0, n0, phi, seg_len, ref) == want
+        assert qk.max_node_shift(qk.Chain(theta0, n0, seg_len, np.zeros(m)), phi, ref) == want
 
 
 def test_the_kinked_joints_are_those_numpy_found():
@@ -71,10 +74,10 @@ def test_the_kinked_joints_are_those_numpy_found():
         phi = rng.normal(scale=0.5, size=m)
         k = rng.uniform(1e-3, 1e-1, m)
         mw = rng.uniform(1e-4, 5e-3, m) * (rng.random() < 0.9)
-        moments = qk.joint_moments(phi, k, mw, *_LAW[:3], _LAW[3], RESIDUAL_STIFFNESS_FRACTION)
+        moments = qk.joint_moments(phi, qk.Joints(k, mw), _LAW_TABLE)
         mc = 2.0 * mw
         want = np.nonzero(np.abs(moments) >= KINK_MOMENT_FRACTION * mc)[0] if np.any(mc > 0) else np.zeros(0, np.int64)
-        got_m, got = qk.kinked_joints(phi, k, mw, *_LAW[:3], _LAW[3], RESIDUAL_STIFFNESS_FRACTION, KINK_MOMENT_FRACTION)
+        got_m, got = qk.kinked_joints(phi, qk.Joints(k, mw), _LAW_TABLE, KINK_MOMENT_FRACTION)
         assert np.array_equal(got_m, moments) and np.array_equal(got, want)
 
 
@@ -91,7 +94,7 @@ def _piece_window_numpy(sim, a, sel, a_sel, b_sel, wpiece_g, w_vertex, w_radius,
         unknown = np.zeros(len(sim._piece_bodies) + 1, np.bool_)
         unknown[wpiece_g[(wpiece_g >= 0) & close]] = True
         if a > 0 and np.any(unknown):
-            held = qk.touching(nodes[: a + 1], sim.seg_rad[:a], blo, bhi, a_sel, b_sel, wpiece_g, w_vertex, w_radius, sim._pc0,
+            held = qk.touching(nodes[: a + 1], sim.seg_rad[:a], blo, bhi, qk.Walls(a_sel, b_sel, wpiece_g, w_vertex, w_radius), sim._pc0,
                                sim._u_all, reach)
             unknown[wpiece_g[(wpiece_g >= 0) & held]] = False
         pieces = np.nonzero(unknown)[0]
@@ -111,6 +114,18 @@ def _piece_window_numpy(sim, a, sel, a_sel, b_sel, wpiece_g, w_vertex, w_radius,
         wpiece = np.where(wpiece_g >= 0, local[np.maximum(wpiece_g, 0)], -1)
         wpiece[wpiece_g < 0] = -1
     return wa, wb, pieces, wpiece
+
+
+def _scene_walls(sim) -> qk.SceneWalls:
+    """The kernel's bundle of a quasi-static simulator's wall features."""
+    w = sim._walls
+    return qk.SceneWalls(qk.Walls(w.a, w.b, w.piece, w.vertex, w.radius), *sim._feature_boxes, w.friction)
+
+
+def _scene_pieces(sim) -> qk.ScenePieces:
+    """The kernel's bundle of a quasi-static simulator's wall pieces."""
+    return qk.ScenePieces(sim._pc0, sim._u_all, np.cos(sim._u_all[:, 2]), np.sin(sim._u_all[:, 2]), sim._k_piece, sim._travel,
+                          sim._k_travel)
 
 
 def test_the_solved_wall_pieces_are_those_the_numpy_code_chose():
@@ -137,12 +152,12 @@ def test_the_solved_wall_pieces_are_those_the_numpy_code_chose():
             seg_rad = sim.seg_rad[a:].copy()
             reach = 0.001 + 0.003
             sel = qk.select_features(nodes[a:], seg_rad, *sim._feature_boxes, 0.001 + 0.012)
-            w = sim._walls
-            a_sel, b_sel, wpiece_g, w_vertex, w_radius, _ = qk.gather_walls(sel, w.a, w.b, w.piece, w.vertex, w.radius, w.friction)
+            scene = _scene_walls(sim)
+            gathered, _ = qk.gather_walls(sel, scene)
+            a_sel, b_sel, wpiece_g, w_vertex, w_radius = gathered
             want = _piece_window_numpy(sim, a, sel, a_sel, b_sel, wpiece_g, w_vertex, w_radius, nodes, seg_rad, reach)
-            got = qk.piece_window(nodes[a:], seg_rad, nodes[: a + 1], sim.seg_rad[:a], a, *sim._feature_boxes, sel, a_sel, b_sel,
-                                  wpiece_g, w_vertex, w_radius, sim._pc0, sim._u_all, np.cos(sim._u_all[:, 2]),
-                                  np.sin(sim._u_all[:, 2]), reach)
+            got = qk.piece_window(nodes[a:], seg_rad, nodes[: a + 1], sim.seg_rad[:a], a, scene, sel, gathered, _scene_pieces(sim),
+                                  reach)
             for g, x in zip(got, want):
                 assert g.shape == x.shape and np.array_equal(g, x)
             checked += len(want[2])
@@ -162,8 +177,8 @@ def test_the_semiseparable_solve_is_the_dense_one_to_rounding():
         full = np.triu(gen[:, 1:4] @ gen[:, 4:7].T)
         full = full + np.triu(full, 1).T + np.diag(gen[:, 0])
         rhs = rng.normal(size=m)
-        x_dense, mu_dense = qk._cholesky_solve(full, rhs, 0.0)
-        x_semi, mu_semi = qk._semi_solve(gen, rhs, 0.0)
+        x_dense, mu_dense = linear.cholesky_solve(full, rhs, 0.0)
+        x_semi, mu_semi = linear.semi_solve(gen, rhs, 0.0)
         assert mu_semi == pytest.approx(mu_dense, rel=1e-12, abs=0.0)  # (the largest diagonal term, rounded otherwise)
         assert np.max(np.abs(x_semi - x_dense)) <= 1e-9 * np.max(np.abs(x_dense))
         shifted += mu_dense > 0
@@ -194,7 +209,7 @@ def _random_generators(rng: np.random.Generator, m: int, compress: bool, vertex_
 
 
 def test_the_semiseparable_solve_with_wall_pieces_is_the_dense_schur_solve_to_rounding():
-    """Wall pieces coupled to the joints through contact records (:func:`qk._record`) on one segment,
+    """Wall pieces coupled to the joints through contact records (:func:`evertgym.sim.kernel.terms.record`) on one segment,
     two adjacent ones (eliminated into the generators) and three or more (kept as unknowns): the
     O(m) solve picks the dense Schur solve's shift and its step to 1e-8 of its size, definite and
     indefinite (the shift engages), with uncoupled pieces beside them."""
@@ -231,8 +246,8 @@ def test_the_semiseparable_solve_with_wall_pieces_is_the_dense_schur_solve_to_ro
             p, k = int(r[0]), int(r[1])
             hjp[: k + 1, 3 * p : 3 * p + 3] += np.outer(a[: k + 1] @ r[2:5], r[5:8])
         rhs = rng.normal(size=m + 3 * npc)
-        x_dense, mu_dense = qk._schur_solve(hess, hjp, hpp, rhs, m, npc, 0.0)
-        x_semi, mu_semi = qk._semi_schur_solve(gen, rec, hpp, rhs, m, npc, 0.0)
+        x_dense, mu_dense = linear.schur_solve(hess, hjp, hpp, rhs, m, npc, 0.0)
+        x_semi, mu_semi = linear.semi_schur_solve(gen, rec, hpp, rhs, m, npc, 0.0)
         assert mu_semi == pytest.approx(mu_dense, rel=1e-12, abs=0.0)
         assert np.max(np.abs(x_semi - x_dense)) <= 1e-8 * np.max(np.abs(x_dense))
         shifted += mu_dense > 0
@@ -259,39 +274,41 @@ def test_a_solves_setup_in_one_call_is_the_setup_of_the_separate_calls():
         if step % 10:
             continue
         nodes, theta = sim._all_nodes()
-        w, fric = sim._walls, sim._fric
-        cos_u, sin_u = np.cos(sim._u_all[:, 2]), np.sin(sim._u_all[:, 2])
+        fric = sim._fric
         for a in range(0, len(sim.phi), 3):
             theta0 = sim.base_angle if a == 0 else float(theta[a - 1])
-            out = qk.window_setup(nodes, theta0, a, sim.phi, sim.seg_len, sim.seg_rad, sim.nodes, sim.length, sim._k_all,
-                                  sim._mw_all, *sim._feature_boxes, w.a, w.b, w.piece, w.vertex, w.radius, w.friction, sim._pc0,
-                                  sim._u_all, cos_u, sin_u, sim._k_piece, sim._travel, sim._k_travel, fric["s"], fric["wall"],
-                                  fric["wl"], fric["t"], fric["ml"], sim.ds, 0.001 + 0.012, 0.001 + 0.003, 0.4, 0.3)
+            scene_entries = qk.Entries(fric["s"], fric["wall"], fric["wl"], fric["t"], fric["ml"])
+            body = qk.Body(nodes, sim.phi, sim.seg_len, sim.seg_rad, sim.nodes, sim.length, qk.Joints(sim._k_all, sim._mw_all))
+            scene, pieces_all = _scene_walls(sim), _scene_pieces(sim)
+            out = qk.window_setup(body, scene, pieces_all, scene_entries,
+                                  qk.WindowQuery(a, theta0, sim.ds, 0.001 + 0.012, 0.001 + 0.003, 0.4, 0.3))
             m = len(sim.phi) - a
             seg_rad = sim.seg_rad[a:].copy()
             sel = qk.select_features(nodes[a:], seg_rad, *sim._feature_boxes, 0.001 + 0.012)
-            overlap = qk.overlaps(theta0, nodes[a].copy(), sim.phi[a:].copy(), sim.seg_len[a:].copy(), seg_rad, sel,
-                                  *sim._feature_boxes, w.a, w.b, w.piece, w.vertex, w.radius, sim._pc0, sim._u_all)
-            assert out[0] == overlap and np.array_equal(out[8], sel)
+            chain = qk.Chain(theta0, nodes[a].copy(), sim.seg_len[a:].copy(), seg_rad)
+            overlap = qk.overlaps(chain, sim.phi[a:].copy(), sel, *sim._feature_boxes, scene.walls, sim._pc0, sim._u_all)
+            assert out.overlap == overlap and np.array_equal(out.sel, sel)
             if overlap:
                 continue
-            gathered = qk.gather_walls(sel, w.a, w.b, w.piece, w.vertex, w.radius, w.friction)
-            wa, wb, pieces, wpiece = qk.piece_window(nodes[a:], seg_rad, nodes[: a + 1], sim.seg_rad[:a], a, *sim._feature_boxes,
-                                                     sel, *gathered[:5], sim._pc0, sim._u_all, cos_u, sin_u, 0.001 + 0.003)
-            friction = qk.window_friction(fric["s"], fric["wall"], fric["wl"], fric["t"], fric["ml"], sel, sim.ds,
-                                          len(sim.seg_len), a)
+            gathered, wall_mu = qk.gather_walls(sel, scene)
+            wa, wb, pieces, wpiece = qk.piece_window(nodes[a:], seg_rad, nodes[: a + 1], sim.seg_rad[:a], a, scene, sel, gathered,
+                                                     pieces_all, 0.001 + 0.003)
+            in_window, f_entries = qk.window_friction(scene_entries, sel, sim.ds, len(sim.seg_len), a)
             robot_mu = np.full(m, 0.4)
             robot_mu[-1] = 0.3
+            got = (out.chain.n0, out.phi, out.chain.seg_len, out.chain.seg_rad, out.s_nodes, *out.joints, out.sel, *out.walls,
+                   out.wall_mu, out.pieces, out.piece_data.pc0, out.u, out.piece_data.kaa, out.piece_data.travel,
+                   out.piece_data.k_travel, out.robot_mu, out.in_window, *out.entries)
             want = (nodes[a], sim.phi[a:], sim.seg_len[a:], seg_rad, np.concatenate((sim.nodes[a:a + m], (sim.length,))),
-                    sim._k_all[a:a + m], sim._mw_all[a:a + m], sel, wa, wb, wpiece, *gathered[3:], pieces, sim._pc0[pieces],
-                    sim._u_all[pieces], sim._k_piece[pieces], np.zeros(3 * len(pieces)), np.full(len(pieces), sim._travel),
-                    np.full(len(pieces), sim._k_travel), robot_mu, *friction)
-            for g, x in zip(out[1:], want):
+                    sim._k_all[a:a + m], sim._mw_all[a:a + m], sel, wa, wb, wpiece, *gathered[3:], wall_mu, pieces, sim._pc0[pieces],
+                    sim._u_all[pieces], sim._k_piece[pieces], np.full(len(pieces), sim._travel),
+                    np.full(len(pieces), sim._k_travel), robot_mu, in_window, *f_entries)
+            assert out.chain.theta0 == theta0
+            for g, x in zip(got, want, strict=True):
                 assert g.shape == x.shape and g.dtype == x.dtype and np.array_equal(g, x)
             # the commit: entries outside the window kept, the window's own appended (as if the solve returned them)
-            in_window, f_s, f_w, f_wl, f_t, f_ml = friction
-            merged = qk.merge_friction(fric["s"], fric["wall"], fric["wl"], fric["t"], fric["ml"], in_window, sel, f_s, f_w,
-                                       f_wl, f_t, f_ml)
+            f_s, f_w, f_wl, f_t, f_ml = f_entries
+            merged = qk.merge_friction(scene_entries, in_window, sel, f_entries)
             keep = ~in_window
             concat = (np.concatenate([fric["s"][keep], f_s]), np.concatenate([fric["wall"][keep], sel[f_w]]),
                       np.concatenate([fric["wl"][keep], f_wl]), np.concatenate([fric["t"][keep], f_t]),
@@ -337,7 +354,7 @@ def test_a_segments_gap_is_the_python_loops():
                     o = sim._pc0[pc] + u[:2]
                     a = o + np.array([c * a[0] - s * a[1], s * a[0] + c * a[1]])
                     b = o + np.array([c * b[0] - s * b[1], s * b[0] + c * b[1]])
-                d = qk._closest(nodes[k, 0], nodes[k, 1], nodes[k + 1, 0], nodes[k + 1, 1], a[0], a[1], b[0], b[1])[6]
+                d = closest((nodes[k, 0], nodes[k, 1]), (nodes[k + 1, 0], nodes[k + 1, 1]), (a[0], a[1]), (b[0], b[1]))[6]
                 want = min(want, d - sim.seg_rad[k] - w.radius[f])
             got = sim._segment_gap(k)
             assert got == want

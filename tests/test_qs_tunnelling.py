@@ -4,14 +4,12 @@ one that moves it farther than the walls it was given runs again seeing farther.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
 
-from evertgym.sim import qs_kernel as qk
-from evertgym.sim.discretize import RESIDUAL_STIFFNESS_FRACTION
-from evertgym.sim.quasistatic import _LAW
+from evertgym.sim import kernel as qk
+from evertgym.sim.kernel.geometry import pair_at
+from evertgym.sim.quasistatic import _LAW_TABLE
 
 SEG_M = 0.0075
 RAD_M = 0.005
@@ -19,9 +17,10 @@ WALL_Y_M = 0.003  # a wall line above the straight chain's axis, closer than its
 WALL_X0_M = 0.050
 WALL_A = np.array([[WALL_X0_M, WALL_Y_M]])
 WALL_B = np.array([[0.080, WALL_Y_M]])
+WALL = qk.Walls(WALL_A, WALL_B, np.full(1, -1, np.int64), np.zeros(1, np.bool_), np.zeros(1))
 
 
-def _swing_back(start_rad: float, semi: bool = False) -> tuple[np.ndarray, np.ndarray, tuple]:
+def _swing_back(start_rad: float, semi: bool = False) -> tuple[np.ndarray, np.ndarray, qk.SolveResult]:
     """Ten segments from the origin, turned up by ``start_rad`` at the base joint and released: the
     joints' equilibrium is the straight chain along x, which the wall (y = 3 mm, x = 50-80 mm) is
     in the way of.  Returns the nodes before and after one solve, and the kernel's status; ``semi``:
@@ -34,12 +33,11 @@ def _swing_back(start_rad: float, semi: bool = False) -> tuple[np.ndarray, np.nd
     z2, z0 = np.zeros((0, 2)), np.zeros(0)
     n0 = np.zeros(2)
     before, _ = qk.chain_nodes(0.0, n0, phi, seg_len)
-    out = qk.solve_increment(
-        0.0, n0, phi, phi.copy(), seg_len, seg_rad, np.arange(m + 1) * SEG_M, np.full(m, 0.05), np.full(m, 10.0),
-        *_LAW[:3], _LAW[3], RESIDUAL_STIFFNESS_FRACTION,
-        WALL_A, WALL_B, np.full(1, -1, np.int64), np.zeros(1, np.bool_), np.zeros(1), np.zeros(1), np.zeros(m), z2, np.zeros((0, 3)),
-        np.zeros((0, 3, 3)), z0, z0, z0, z0, np.zeros(0, np.int64), z2, z2, z0,
-        1e-3, 0.1 * 8000.0 * math.pi * 0.02**2 / 1e-3, 1e-5, 1e-7, 1e-7, 200, 0.002, 1, semi)
+    problem = qk.Problem(qk.Chain(0.0, n0, seg_len, seg_rad), qk.Joints(np.full(m, 0.05), np.full(m, 10.0)), _LAW_TABLE, WALL,
+                         qk.Pieces(z2, np.zeros((0, 3, 3)), z0, z0), qk.ContactLaw(1e-3, qk.barrier_stiffness(0.02, 1e-3), 1e-5))
+    no_friction = qk.Entries(z0, np.zeros(0, np.int64), z2, z2, z0)
+    out = qk.solve_increment(problem, phi, phi.copy(), np.zeros((0, 3)), np.arange(m + 1) * SEG_M, np.zeros(m), np.zeros(1),
+                             no_friction, qk.SolveSettings(1e-7, 1e-7, 200, 0.002, 1, semi))
     after, _ = qk.chain_nodes(0.0, n0, phi, seg_len)
     return before, after, out
 
@@ -48,10 +46,7 @@ def _gaps(nodes: np.ndarray) -> np.ndarray:
     """Gap (m) between each segment's surface and the wall line (its end points included)."""
     out = []
     for k in range(len(nodes) - 1):
-        gap = qk._pair_at(nodes, k, 0, np.full(len(nodes) - 1, RAD_M),
-                                                            WALL_A, WALL_B,
-                                                            np.full(1, -1, np.int64), np.zeros(1, np.bool_), np.zeros(1),
-                                                            np.zeros((0, 4)))[10]
+        gap = pair_at(nodes, k, 0, np.full(len(nodes) - 1, RAD_M), *WALL, np.zeros((0, 4)))[10]
         out.append(gap)
     return np.array(out)
 
@@ -60,7 +55,7 @@ def _gaps(nodes: np.ndarray) -> np.ndarray:
 def test_a_body_released_far_from_a_wall_stops_on_it_instead_of_passing_through(semi):
     before, after, out = _swing_back(0.4, semi)
     assert _gaps(before).min() > 0.008  # the wall is far beyond the solve's first candidates (6 mm)
-    assert out[0] == qk.CONVERGED
+    assert out.status == qk.CONVERGED
     gaps = _gaps(after)
     assert gaps.min() > 0.0  # it rests on the wall; before the fix it passed through it (gap -2 mm)
     assert gaps.min() < 1e-3  # within the barrier's reach: the wall holds it
@@ -74,7 +69,7 @@ def test_where_it_rests_does_not_depend_on_how_far_from_the_wall_it_started(star
     rest where it does when released far from it."""
     _, after, out = _swing_back(start_rad, semi)
     _, ref, _ = _swing_back(0.4, semi)
-    assert out[0] == qk.CONVERGED
+    assert out.status == qk.CONVERGED
     assert _gaps(after).min() > 0.0
     assert np.max(np.abs(after - ref)) < 1e-4
 

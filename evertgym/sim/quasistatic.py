@@ -11,12 +11,12 @@ inertia or damping to tune (``shared/notes/bend-physics.md``, sections 8-9):
 * **Equilibrium.** After every growth increment and every pressure increment (``pressure_increment_fraction``) the joints within
   ``active_length_m`` of the tip (and any held joint that is out of balance, see below), with
   the compliant wall pieces near them, are put in equilibrium by Newton's method on the
-  incremental potential of :mod:`evertgym.sim.qs_kernel`: the calibrated joint law (the
+  incremental potential of :mod:`evertgym.sim.kernel`: the calibrated joint law (the
   rod-derived stiffness scaled with ``E_eff(p)``, wrinkling at ``p pi r^3 / 2``, the
   tension-field law to the kink plateau), IPC log barriers on every robot-wall capsule gap
   (``barrier_gap_m``), Coulomb friction lagged per increment (the wall's normal force and
   tangent from the last solution, iterated ``friction_lag_iterations`` times, sliding beyond
-  ``friction_slip_m`` of tangential travel per increment; a contact sticks below ``mu N``) and
+  ``friction_slip_fraction`` of the increment's growth in tangential travel; a contact sticks below ``mu N``) and
   the compliant wall's linear springs and travel stop.  The solve stops on a force criterion:
   every unbalanced joint moment below ``solver_tolerance p pi r^3`` and every unbalanced
   wall-piece force below ``solver_tolerance p pi r^2`` (with ``p`` at least 1 kPa).
@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import pymunk
@@ -49,7 +50,7 @@ import pymunk
 from evertgym._blas import one_blas_thread
 from evertgym.model.pressure import _END_SLOPE, KINK_MOMENT_FRACTION, wrinkled_moment_fraction
 from evertgym.scenes.scene import Scene
-from evertgym.sim import qs_kernel as qk
+from evertgym.sim import kernel as qk
 from evertgym.sim.band_laws import axial_share, band_fold_pressure, flattening, fold_excess, hinged_band_near_tip
 from evertgym.sim.discretize import RESIDUAL_STIFFNESS_FRACTION
 from evertgym.sim.tube import EversionSim
@@ -123,6 +124,7 @@ def _law_table(n: int = 6000, x_max: float = 1e4) -> tuple[np.ndarray, np.ndarra
 
 
 _LAW = _law_table()
+_LAW_TABLE = qk.LawTable(*_LAW, RESIDUAL_STIFFNESS_FRACTION)  # (the kernel's bundle of it)
 
 
 @dataclass
@@ -194,6 +196,25 @@ class SolveStats:
                 "max_residual_ratio": self.max_residual_ratio, "rejoined_joints": self.rejoined,
                 "solve_retries": self.retried, "solve_escalations": self.escalated, "solve_reselections": self.reselected,
                 "solve_budget_cuts": self.budget_cuts}
+
+
+class _Snapshot(NamedTuple):
+    """The body's state at a growth increment's start (:meth:`QuasiStaticSim._snapshot`), restored if
+    the increment is retried shorter or cut back."""
+
+    phi: np.ndarray
+    seg_len: np.ndarray
+    seg_rad: np.ndarray
+    length: float
+    u: np.ndarray
+    fric: dict
+    seg_force: np.ndarray
+    seg_moment: np.ndarray
+    contact_segs: set
+    tip_force: float
+    tip_contact: np.ndarray
+    tip_clearance: float
+    active_start: int
 
 
 class QuasiStaticSim(EversionSim):
@@ -284,7 +305,7 @@ class QuasiStaticSim(EversionSim):
         self._grown = 0.0  # growth (m) the next solve follows (0: a solve in place), for its friction slip
         self._rejoin: tuple[int, int] | None = None  # (joint, solves since) of the last widening
         # barrier stiffness: 0.1 x the largest drive (8 kPa pi r^2) per barrier gap (N/m)
-        self._kappa = 0.1 * 8000.0 * math.pi * design.radius_m**2 / cfg.barrier_gap_m
+        self._kappa = qk.barrier_stiffness(design.radius_m, cfg.barrier_gap_m)
         self._flat = np.zeros(len(self.nodes))  # per joint: the cross-section's flattening f (band_laws.flattening)
         self._tip_mu = cfg.tip_friction  # the tip's friction coefficient now (band_hinge_relief lowers it)
         # per band: the joints inside its strip and its centre (m), for the band-hinge law
@@ -367,8 +388,7 @@ class QuasiStaticSim(EversionSim):
     def joint_moments(self, start: int = 0) -> np.ndarray:
         """Joint moments (N m) of joints ``start..`` from the law at the current angles."""
         n = len(self.phi)
-        return qk.joint_moments(self.phi[start:], self._k_all[start:n], self._mw_all[start:n], *_LAW[:3], _LAW[3],
-                                RESIDUAL_STIFFNESS_FRACTION)
+        return qk.joint_moments(self.phi[start:], qk.Joints(self._k_all[start:n], self._mw_all[start:n]), _LAW_TABLE)
 
     def collapse_moments(self, start: int = 0) -> np.ndarray:
         return 2.0 * self._mw_all[start : len(self.phi)]
@@ -554,12 +574,12 @@ class QuasiStaticSim(EversionSim):
         return inc
 
     # ---- one growth increment ----------------------------------------------------------
-    def _snapshot(self) -> tuple:
-        return (self.phi.copy(), self.seg_len.copy(), self.seg_rad.copy(), self.length, self._u_all.copy(), dict(self._fric),
+    def _snapshot(self) -> _Snapshot:
+        return _Snapshot(self.phi.copy(), self.seg_len.copy(), self.seg_rad.copy(), self.length, self._u_all.copy(), dict(self._fric),
                 self._seg_force.copy(), self._seg_moment.copy(), set(self._contact_segs), self.tip_force, self.tip_contact.copy(),
                 self._tip_clearance, self.active_start)
 
-    def _restore(self, snap: tuple) -> None:
+    def _restore(self, snap: _Snapshot) -> None:
         (phi, seg_len, seg_rad, self.length, u, fric, seg_force, seg_moment, contact_segs, self.tip_force,
          tip_contact, self._tip_clearance, self.active_start) = snap
         self.phi, self.seg_len, self.seg_rad, self._fric = phi.copy(), seg_len.copy(), seg_rad.copy(), dict(fric)
@@ -614,7 +634,7 @@ class QuasiStaticSim(EversionSim):
         if cut or self.cfg.flattening > 0:  # (else the state was published as it stands: publishing is idempotent)
             self._publish()
 
-    def _cut_back(self, start: tuple, dl: float, p: float, req_end: float) -> None:
+    def _cut_back(self, start: _Snapshot, dl: float, p: float, req_end: float) -> None:
         """Find, from state ``start``, the growth in ``(0, dl)`` at which the tip's required pressure
         meets ``p`` (regula falsi, Illinois variant, on ``p_req(L) - p``; a length whose solve
         overlaps a wall counts as too far) and leave the body there: within ``dl / 128`` of it or
@@ -623,7 +643,7 @@ class QuasiStaticSim(EversionSim):
         (``_req_ahead``): where it jumps (a band's eversion threshold at the tip) the tip stands at
         the jump, and the growth law reads that pressure, not the lower one behind it."""
         lo, hi = 0.0, dl
-        g_lo = self._required(start[9]) - p
+        g_lo = self._required(start.tip_force) - p
         g_hi = math.inf
         req_hi = req_end
         best, side = None, 0
@@ -743,8 +763,7 @@ class QuasiStaticSim(EversionSim):
         self._contact_update(mag, (len(self.seg_len) - 1) in self._contact_segs)
         self._band_events()
         n = len(self.phi)
-        moments, kinked = qk.kinked_joints(self.phi, self._k_all[:n], self._mw_all[:n], *_LAW[:3], _LAW[3], RESIDUAL_STIFFNESS_FRACTION,
-                                           KINK_MOMENT_FRACTION)
+        moments, kinked = qk.kinked_joints(self.phi, qk.Joints(self._k_all[:n], self._mw_all[:n]), _LAW_TABLE, KINK_MOMENT_FRACTION)
         self._kink_events(kinked, moments, 2.0 * self._mw_all[:n])
         if self.cfg.band_hinge_relief > 0:
             hinged = hinged_band_near_tip(moments, self._mw_all[:n], self._band_joints, self._band_centres, self.length,
@@ -769,7 +788,7 @@ class QuasiStaticSim(EversionSim):
         nodes, _ = self._all_nodes()
         sel = self._query_walls(nodes[k:k + 2], self.seg_rad[k] + self.ds)
         w = self._walls
-        return qk.segment_gap(nodes, k, float(self.seg_rad[k]), sel, w.a, w.b, w.piece, w.vertex, w.radius, self._pc0, self._u_all)
+        return qk.segment_gap(nodes, k, float(self.seg_rad[k]), sel, qk.Walls(w.a, w.b, w.piece, w.vertex, w.radius), self._pc0, self._u_all)
 
     # ---- the equilibrium solve ------------------------------------------------------------
     def _window_start(self) -> int:
@@ -816,8 +835,7 @@ class QuasiStaticSim(EversionSim):
         sf = np.cumsum(self._seg_force[::-1], axis=0)[::-1]
         sm = np.cumsum(self._seg_moment[::-1])[::-1]
         ext = sm[:a] - (nodes[:a, 0] * sf[:a, 1] - nodes[:a, 1] * sf[:a, 0])
-        own = qk.joint_moments(self.phi[:a], self._k_all[:a], self._mw_all[:a], *_LAW[:3], _LAW[3],
-                               RESIDUAL_STIFFNESS_FRACTION)
+        own = qk.joint_moments(self.phi[:a], qk.Joints(self._k_all[:a], self._mw_all[:a]), _LAW_TABLE)
         bad = np.nonzero(np.abs(own - ext) > tol_m)[0]
         return int(bad[0]) if len(bad) else None
 
@@ -851,15 +869,18 @@ class QuasiStaticSim(EversionSim):
             cos_u, sin_u = np.cos(self._u_all[:, 2]), np.sin(self._u_all[:, 2])
         else:
             cos_u = sin_u = _NO_ANGLES
-        (overlap, n0, phi, seg_len, seg_rad, s_nodes, k_j, mw_j, sel, wa, wb, wpiece, w_vertex, w_radius, w_friction, pieces,
-         pc0, u, kaa, fh, travel, k_travel, robot_mu, in_window, f_s, f_w, f_wl, f_t, f_ml) = qk.window_setup(
-            nodes, theta0, a, self.phi, self.seg_len, self.seg_rad, self.nodes, self.length, self._k_all, self._mw_all,
-            *self._feature_boxes, walls.a, walls.b, walls.piece, walls.vertex, walls.radius, walls.friction, self._pc0,
-            self._u_all, cos_u, sin_u, self._k_piece, self._travel, self._k_travel, fric["s"], fric["wall"], fric["wl"],
-            fric["t"], fric["ml"], self.ds, cfg.barrier_gap_m + margin, cfg.barrier_gap_m + _PIECE_MARGIN_M,
-            cfg.wall_friction, self._tip_mu)
-        if overlap:  # (the features an overlap can involve are all within the margin)
+        fric_entries = qk.Entries(fric["s"], fric["wall"], fric["wl"], fric["t"], fric["ml"])
+        win = qk.window_setup(
+            qk.Body(nodes, self.phi, self.seg_len, self.seg_rad, self.nodes, self.length, qk.Joints(self._k_all, self._mw_all)),
+            qk.SceneWalls(qk.Walls(walls.a, walls.b, walls.piece, walls.vertex, walls.radius), *self._feature_boxes, walls.friction),
+            qk.ScenePieces(self._pc0, self._u_all, cos_u, sin_u, self._k_piece, self._travel, self._k_travel), fric_entries,
+            qk.WindowQuery(a, theta0, self.ds, cfg.barrier_gap_m + margin, cfg.barrier_gap_m + _PIECE_MARGIN_M, cfg.wall_friction,
+                           self._tip_mu))
+        if win.overlap:  # (the features an overlap can involve are all within the margin)
             return False
+        phi, u, pieces = win.phi, win.u, win.pieces
+        problem = qk.Problem(win.chain, win.joints, _LAW_TABLE, win.walls, win.piece_data,
+                             qk.ContactLaw(cfg.barrier_gap_m, self._kappa, self._friction_slip()))
         phi_ref = phi.copy()
         iters = 0
         # one Newton iteration's work: O(m) with the semiseparable solver, O(m^3) with the dense one
@@ -870,12 +891,10 @@ class QuasiStaticSim(EversionSim):
             affordable = int(self._work_left / per_iteration)
             cut = budget > affordable  # the step's work budget ends this solve (_WORK_PER_S)
             budget = max(1, min(budget, affordable))
-            (status, it, res_m, res_f, e_s, e_w, e_wl, e_t, e_ml, acc_f, acc_m, tip, rows) = qk.solve_increment(
-                theta0, n0, phi, phi_ref, seg_len, seg_rad, s_nodes, k_j, mw_j, *_LAW[:3], _LAW[3], RESIDUAL_STIFFNESS_FRACTION,
-                wa, wb, wpiece, w_vertex, w_radius, w_friction, robot_mu, pc0, u, kaa, fh,
-                travel, k_travel, f_s, f_w, f_wl, f_t, f_ml, cfg.barrier_gap_m, self._kappa, self._friction_slip(), tol_m,
-                tol_f, budget, _MAX_MOVE_M, cfg.friction_lag_iterations,
-                cfg.linear_solver == "semiseparable")
+            res = qk.solve_increment(problem, phi, phi_ref, u, win.s_nodes, win.robot_mu, win.wall_mu, win.entries,
+                                     qk.SolveSettings(tol_m, tol_f, budget, _MAX_MOVE_M, cfg.friction_lag_iterations,
+                                                      cfg.linear_solver == "semiseparable"))
+            status, it, res_m, res_f = res.status, res.iterations, res.residual_m, res.residual_f
             iters += it
             self._work_left -= it * per_iteration
             if cut and status != qk.CONVERGED:
@@ -893,7 +912,7 @@ class QuasiStaticSim(EversionSim):
         self._stats.newton_iterations += iters
         if status == qk.INFEASIBLE_START:
             return False
-        reach = qk.max_node_shift(theta0, n0, phi, seg_len, nodes[a:])
+        reach = qk.max_node_shift(win.chain, phi, nodes[a:])
         if reach > margin:  # it went past the walls it saw: again, seeing farther (_solve_window)
             return reach
         self._stats.solves += 1
@@ -914,18 +933,18 @@ class QuasiStaticSim(EversionSim):
         self._u_all[pieces] = u
         if len(self._piece_bodies):  # what the scene's pymunk pieces show after the step (_show_pieces)
             self._u_solved = self._u_all.copy()
-        merged = qk.merge_friction(fric["s"], fric["wall"], fric["wl"], fric["t"], fric["ml"], in_window, sel, e_s, e_w, e_wl, e_t, e_ml)
+        merged = qk.merge_friction(fric_entries, win.in_window, win.sel, res.entries)
         self._fric = dict(zip(("s", "wall", "wl", "t", "ml"), merged))
         n = len(self.phi)
         if len(self._seg_force) != n:
             self._seg_force = np.vstack([self._seg_force, np.zeros((n - len(self._seg_force), 2))])[:n]
             self._seg_moment = np.concatenate([self._seg_moment, np.zeros(n - len(self._seg_moment))])[:n]
-        self._seg_force[a:] = acc_f
-        self._seg_moment[a:] = acc_m
-        self._contact_segs = {s for s in self._contact_segs if s < a} | set((rows[:, 0].astype(np.int64) + a).tolist())
-        self.tip_force = max(0.0, float(tip[0]))
-        self.tip_contact = np.array([tip[1], tip[2]])
-        self._tip_clearance = float(tip[3])
+        self._seg_force[a:] = res.seg_force
+        self._seg_moment[a:] = res.seg_moment
+        self._contact_segs = {s for s in self._contact_segs if s < a} | set((res.rows[:, 0].astype(np.int64) + a).tolist())
+        self.tip_force = max(0.0, float(res.tip[0]))
+        self.tip_contact = np.array([res.tip[1], res.tip[2]])
+        self._tip_clearance = float(res.tip[3])
         return True
 
     # ---- events, stalls ---------------------------------------------------------------------
