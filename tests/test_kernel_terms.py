@@ -245,15 +245,9 @@ def _piece_state(rng: np.random.Generator, npc: int) -> np.ndarray:
     return np.column_stack([rng.normal(scale=1e-3, size=(npc, 2)), rng.normal(scale=0.05, size=npc)])
 
 
-#: The Hessian's known departures from the finite differences (docs/quasistatic.md, the compiled kernel).
-_INEXACT_PAIRS = {("vertex-side", False), ("vertex-side", True), ("vertex-tip", True), ("end-tip", True)}
-
-
 @pytest.mark.parametrize("on_piece", [False, True])
 @pytest.mark.parametrize("kind", PAIR_KINDS)
-def test_the_barriers_gradient_and_hessian_are_its_finite_differences(kind, on_piece, request):
-    if (kind, on_piece) in _INEXACT_PAIRS:
-        request.applymarker(pytest.mark.xfail(strict=True, raises=AssertionError, reason="a curvature term the Hessian misses"))
+def test_the_barriers_gradient_and_hessian_are_its_finite_differences(kind, on_piece):
     for seed in range(3):
         rng = np.random.default_rng(10 * PAIR_KINDS.index(kind) + seed + 100 * on_piece)
         chain, phi = _chain(rng)
@@ -291,9 +285,7 @@ def _friction(rng: np.random.Generator, chain: qk.Chain, phi: np.ndarray, walls:
 
 @pytest.mark.parametrize("on_piece", [False, True])
 @pytest.mark.parametrize("sliding", [False, True])
-def test_the_lagged_frictions_gradient_and_hessian_are_its_finite_differences(sliding, on_piece, request):
-    if on_piece:
-        request.applymarker(pytest.mark.xfail(strict=True, raises=AssertionError, reason="the Hessian drops a piece's turning wall point"))
+def test_the_lagged_frictions_gradient_and_hessian_are_its_finite_differences(sliding, on_piece):
     for seed in range(3):
         rng = np.random.default_rng(200 + seed + 10 * sliding + 100 * on_piece)
         chain, phi = _chain(rng)

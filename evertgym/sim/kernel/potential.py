@@ -108,12 +108,13 @@ def chain_gradient(acc: Accumulators, nodes: np.ndarray) -> np.ndarray:
 @nb.njit(cache=True, nogil=True)
 def chain_columns(acc: Accumulators, nodes: np.ndarray, gsum: np.ndarray) -> np.ndarray:
     """The parts of the joints' Hessian that depend on the later joint alone: with the contacts' sums
-    taken from the tip, ``H_ij (j >= i) = w_i^T smat[j] w_j + gsum_j + va_j + vf_j . n_i`` with
-    ``w = (1, -n_x, n_y)``; returns ``cj`` (m, 4) = ``[smat[j] w_j, gsum_j + va_j]``.
+    taken from the tip, ``H_ij (j >= i) = w_i^T smat[j] w_j + gsum_j + va_j + vf_j . (n_i + n_j)`` with
+    ``w = (1, -n_x, n_y)``; returns ``cj`` (m, 4) = ``[smat[j] w_j, gsum_j + va_j + vf_j . n_j]``.
 
     ``vf_j``, the forces of wall vertices on the sides of segments ``>= j``, act at points that slide
-    along their segments: the curvature of such a distance is ``n . (p - n_min(i,j)) - D``; ``gsum_j``
-    still holds ``-f . n_j`` of theirs (the finite differences of ``tests/test_kernel_terms.py`` show it)."""
+    along their segments: the curvature of such a distance is ``n . (p - n_min(i,j)) - D``
+    (:func:`~evertgym.sim.kernel.terms.barrier_forces`), and ``vf_j . n_j`` takes back the ``-f . n_j``
+    that ``gsum_j``, the geometric stiffness of forces at material points, holds for them."""
     smat = acc.smat
     va = acc.va
     vf = acc.vf
@@ -132,7 +133,7 @@ def chain_columns(acc: Accumulators, nodes: np.ndarray, gsum: np.ndarray) -> np.
         cj[j, 0] = smat[j, 0, 0] + smat[j, 0, 1] * wj1 + smat[j, 0, 2] * wj2
         cj[j, 1] = smat[j, 1, 0] + smat[j, 1, 1] * wj1 + smat[j, 1, 2] * wj2
         cj[j, 2] = smat[j, 2, 0] + smat[j, 2, 1] * wj1 + smat[j, 2, 2] * wj2
-        cj[j, 3] = gsum[j] + va[j]
+        cj[j, 3] = gsum[j] + va[j] + (vf[j, 0] * nodes[j, 0] + vf[j, 1] * nodes[j, 1])
     return cj
 
 

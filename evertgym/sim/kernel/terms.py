@@ -10,16 +10,15 @@ whatever calls it).  The contact and friction terms act through points of the ch
 add into per-segment sums (:class:`~evertgym.sim.kernel.bundles.Accumulators`) that
 :mod:`evertgym.sim.kernel.potential` turns into the joints' gradient and Hessian.
 
-The Hessians against central differences (``tests/test_kernel_terms.py``): the joint law's stiffness
-is its table's slope over a cell, consistent with its moment to the table's resolution; the piece
-springs' is exact.  The barrier's holds the rank-one ``kappa b'' g g^T`` of the distance's gradient,
-the chain's geometric stiffness under the contact force, and the distance's own curvature for a pair
-whose closest points are two points (``kappa b' (I - n n^T) / dist``) and for a robot node against a
-piece's side (the line turns with the piece), exactly; for a wall vertex against a segment's side
-(the distance to a line that turns with the joints) it keeps a ``-f . n_max(i,j)`` too many, and it
-drops the turn of a piece's wall point in a two-point pair.  The friction term's keeps the 1-D
-tangent's ``f1'`` (0 once sliding) and the chain's geometric stiffness under the friction force,
-exactly on static walls; it drops the turn of a piece's wall point.
+Every Hessian is exact (``tests/test_kernel_terms.py`` holds each against central differences).
+The barrier's: the rank-one ``kappa b'' g g^T`` of the distance's gradient, the chain's geometric
+stiffness under the contact force, and the distance's own curvature where it has one (a pair whose
+closest points are two points: ``kappa b' (I - n n^T) / dist``; a wall vertex against a segment's
+side: the distance to a line that turns with the joints; a robot node against a piece's side: the
+line turns with the piece; a wall point that turns with its piece).  The friction term's: the 1-D
+tangent's ``f1'`` (0 once sliding), the chain's geometric stiffness under the friction force and the
+turn of a piece's wall point.  The joint law's stiffness is its table's slope over a cell, consistent
+with its moment to the table's resolution.
 """
 
 from __future__ import annotations
@@ -455,6 +454,8 @@ def barrier_forces(acc: Accumulators, nodes: np.ndarray, pairs: np.ndarray, geo:
             _vertex_side(acc_fx, va, vf, hjp, hpp, rec, nrec, k, (px, py, qx, qy), (nx, ny, fmag, dist), p, centre)
         elif point_point(s, (qx, qy), (cx, cy, dx, dy), wvertex[w]):  # the normal turns as p moves across
             rank1(smat, hjp, hpp, rec, nrec, nodes, k, (px, py, -ny, nx), p, wall, kappa * b1 / dist)
+            if p >= 0:  # the wall point turns with its piece
+                hpp[p, 2, 2] -= fmag * (nx * (qx - centre[0]) + ny * (qy - centre[1]))
         elif p >= 0:
             _piece_side(hjp, hpp, rec, nrec, nodes, k, (px, py), (nx, ny), fmag, p, centre)
 
@@ -477,3 +478,5 @@ def friction_forces(acc: Accumulators, nodes: np.ndarray, fr: Friction, wpiece: 
         apply_force(acc_f, acc_m, acc_fx, tip, grad, k, s, (xr, yr, xw, yw), (ff * tx, ff * ty), p, centre, e_tip)
         if want_hess:
             rank1(smat, hjp, hpp, rec, nrec, nodes, k, (xr, yr, tx, ty), p, (centre[0], centre[1], xw, yw), fmulam[c] * df1)
+            if p >= 0:  # the wall point turns with its piece
+                hpp[p, 2, 2] -= ff * (tx * (xw - centre[0]) + ty * (yw - centre[1]))
