@@ -30,7 +30,7 @@ def test_the_engine_switch_builds_the_quasistatic_engine():
     (dict(engine="implicit"), "engine = 'implicit' is out of range: allowed 'quasistatic' or 'dynamic'"),
     (dict(engine="quasistatic", mass_ratio=0.1), "mass_ratio = 0.1 means nothing to engine 'quasistatic'"),
     (dict(engine="quasistatic", dormant_walls=True), "dormant_walls = True means nothing to engine 'quasistatic'"),
-    (dict(engine="dynamic", growth_increment_m=0.0005), "growth_increment_m = 0.0005 means nothing to engine 'dynamic'"),
+    (dict(engine="dynamic", growth_increment_m=0.002), "growth_increment_m = 0.002 means nothing to engine 'dynamic'"),
     (dict(engine="quasistatic", growth_increment_m=0.02), "growth_increment_m = 0.02 is out of range"),
     (dict(engine="quasistatic", solver_tolerance=0.0), "solver_tolerance = 0.0 is out of range"),
     (dict(engine="quasistatic", section_law=True), "section_law = True means nothing to engine 'quasistatic'"),

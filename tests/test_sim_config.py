@@ -55,7 +55,7 @@ def test_parse_sim_takes_every_field_at_its_engine():
     ('{"no_such_field": 1}', {}, "no_such_field = 1 is not a SimConfig field"),
     ('{"growth_incremnt_m": 1}', {}, "did you mean 'growth_increment_m'?"),
     ('{"mass_ratio": 0.1}', {}, "mass_ratio = 0.1 means nothing to engine 'quasistatic': it is a setting of engine 'dynamic' only"),
-    ('{"engine": "dynamic", "growth_increment_m": 0.0005}', {}, "growth_increment_m = 0.0005 means nothing to engine 'dynamic'"),
+    ('{"engine": "dynamic", "growth_increment_m": 0.002}', {}, "growth_increment_m = 0.002 means nothing to engine 'dynamic'"),
     ('{"growth_increment_m": 0.5}', {}, "growth_increment_m = 0.5 is out of range: allowed"),
     ('{"iterations": 1.5}', {"extra": {"engine": "dynamic"}}, "iterations = 1.5 is out of range: allowed integers"),
     ("[1, 2]", {}, "'[1, 2]' is a JSON array: allowed a JSON object of SimConfig fields"),
