@@ -82,7 +82,7 @@ def test_a_solve_that_goes_beyond_the_walls_it_sees_runs_again_seeing_farther(mo
 
     from evertgym.sim import SimConfig, quasistatic
 
-    qs = SimConfig(engine="quasistatic")
+    qs = SimConfig(engine="quasistatic", growth_increment_m=0.001)  # 1 mm increments: solves that move past 0.5 mm
     ref, ref_heading = grow_into_inclined_wall(45.0, qs)
     assert ref.solve_stats["solve_reselections"] == 0
     monkeypatch.setattr(quasistatic, "_QUERY_MARGIN_M", 0.0005)
