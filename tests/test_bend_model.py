@@ -201,7 +201,7 @@ def test_bad_friction_slip_names_the_field(name, value):
         SimConfig(**{name: value})
 
 
-@pytest.mark.slow  # about 4 min on 2 cores: 96 U-bend trials at 0.5 and 0.25 mm increments
+@pytest.mark.slow  # about 20 s on 2 cores: 96 U-bend trials at 0.5 and 0.25 mm increments
 def test_halving_the_growth_increment_moves_no_bare_cell_by_more_than_one(tmp_path):
     """The convergence criterion on the bare cells most sensitive to it (40 and 37.5 mm, where the tip slides
     along the outer wall before it jams): the default growth increment against half of it, the same trials."""
