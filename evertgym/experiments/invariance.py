@@ -32,6 +32,7 @@ import warnings
 from pathlib import Path
 
 from evertgym.experiments.paper import UBEND_RADII_MM, reproduce_colon, reproduce_ubend
+from evertgym.sim.config import SimConfig
 
 #: (name, SimConfig overrides): the reference first, then one knob changed at a time.
 SETTINGS: tuple[tuple[str, dict], ...] = (
@@ -49,9 +50,10 @@ CRITERIA = {"ubend_max_cell_change_of_12": 2, "colon_outcomes_equal": True, "ope
 #: time (the growth increment halved, the solver tolerance ten times tighter, the pressure increment
 #: that triggers a re-solve five times finer).  It has no mass,
 #: inertia or damping settings to vary.
+_HALF_INCREMENT_M = 0.5 * SimConfig().growth_increment_m
 QUASISTATIC_SETTINGS: tuple[tuple[str, dict], ...] = (
     ("quasistatic", {"engine": "quasistatic"}),
-    ("growth_increment_m=0.0005", {"engine": "quasistatic", "growth_increment_m": 0.0005}),
+    (f"growth_increment_m={_HALF_INCREMENT_M:g}", {"engine": "quasistatic", "growth_increment_m": _HALF_INCREMENT_M}),
     ("solver_tolerance=1e-4", {"engine": "quasistatic", "solver_tolerance": 1e-4}),
     ("pressure_increment_fraction=0.01", {"engine": "quasistatic", "pressure_increment_fraction": 0.01}),
 )
