@@ -254,6 +254,8 @@ class QuasiStaticSim(EversionSim):
             ends = [np.where(moving[:, None], e + pos[np.maximum(w.piece, 0)], e) for e in ends]
         grow = (w.radius + (travel + _PIECE_BOX_MARGIN_M) * (w.piece >= 0))[:, None]  # a piece's box covers its travel
         self._feature_boxes = (np.minimum(*ends) - grow, np.maximum(*ends) + grow)
+        # the kernel's bundle of the scene's walls: fixed once built (a solve gathers its window from it)
+        self._scene_walls = qk.SceneWalls(qk.Walls(w.a, w.b, w.piece, w.vertex, w.radius), *self._feature_boxes, w.friction)
         n_p = len(self._piece_bodies)
         self._pc0 = np.array([tuple(b.position) for b in self._piece_bodies], float).reshape(-1, 2)
         self._u_all = np.zeros((n_p, 3))
@@ -864,7 +866,7 @@ class QuasiStaticSim(EversionSim):
         cfg = self.cfg
         nodes, theta = self._all_nodes()
         theta0 = self.base_angle if a == 0 else float(theta[a - 1])
-        walls, fric = self._walls, self._fric
+        fric = self._fric
         if len(self._piece_bodies):
             cos_u, sin_u = np.cos(self._u_all[:, 2]), np.sin(self._u_all[:, 2])
         else:
@@ -872,7 +874,7 @@ class QuasiStaticSim(EversionSim):
         fric_entries = qk.Entries(fric["s"], fric["wall"], fric["wl"], fric["t"], fric["ml"])
         win = qk.window_setup(
             qk.Body(nodes, self.phi, self.seg_len, self.seg_rad, self.nodes, self.length, qk.Joints(self._k_all, self._mw_all)),
-            qk.SceneWalls(qk.Walls(walls.a, walls.b, walls.piece, walls.vertex, walls.radius), *self._feature_boxes, walls.friction),
+            self._scene_walls,
             qk.ScenePieces(self._pc0, self._u_all, cos_u, sin_u, self._k_piece, self._travel, self._k_travel), fric_entries,
             qk.WindowQuery(a, theta0, self.ds, cfg.barrier_gap_m + margin, cfg.barrier_gap_m + _PIECE_MARGIN_M, cfg.wall_friction,
                            self._tip_mu))

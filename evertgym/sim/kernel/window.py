@@ -69,15 +69,21 @@ def window_friction(entries: Entries, sel: np.ndarray, ds: float, n: int, a: int
     c = 0
     for i in range(ne):
         if pos[i] >= 0:
-            out.s[c] = e_s[i]
-            out.w[c] = pos[i]
-            out.wl[c, 0] = entries.wl[i, 0]
-            out.wl[c, 1] = entries.wl[i, 1]
-            out.t[c, 0] = entries.t[i, 0]
-            out.t[c, 1] = entries.t[i, 1]
-            out.ml[c] = entries.ml[i]
+            _copy_entry(out, c, entries, i, e_s[i], pos[i])
             c += 1
     return in_window, out
+
+
+@nb.njit(cache=True, nogil=True)
+def _copy_entry(out: Entries, c: int, src: Entries, i: int, s: float, w: int) -> None:
+    """Entry ``i`` of ``src`` into slot ``c`` of ``out``, at segment parameter ``s`` on wall feature ``w``."""
+    out.s[c] = s
+    out.w[c] = w
+    out.wl[c, 0] = src.wl[i, 0]
+    out.wl[c, 1] = src.wl[i, 1]
+    out.t[c, 0] = src.t[i, 0]
+    out.t[c, 1] = src.t[i, 1]
+    out.ml[c] = src.ml[i]
 
 
 @nb.njit(cache=True, nogil=True)
@@ -236,21 +242,9 @@ def merge_friction(scene_entries: Entries, in_window: np.ndarray, sel: np.ndarra
     c = 0
     for i in range(scene_entries.s.shape[0]):
         if not in_window[i]:
-            out.s[c] = scene_entries.s[i]
-            out.w[c] = scene_entries.w[i]
-            out.wl[c, 0] = scene_entries.wl[i, 0]
-            out.wl[c, 1] = scene_entries.wl[i, 1]
-            out.t[c, 0] = scene_entries.t[i, 0]
-            out.t[c, 1] = scene_entries.t[i, 1]
-            out.ml[c] = scene_entries.ml[i]
+            _copy_entry(out, c, scene_entries, i, scene_entries.s[i], scene_entries.w[i])
             c += 1
     for i in range(solved.s.shape[0]):
-        out.s[c] = solved.s[i]
-        out.w[c] = sel[solved.w[i]]
-        out.wl[c, 0] = solved.wl[i, 0]
-        out.wl[c, 1] = solved.wl[i, 1]
-        out.t[c, 0] = solved.t[i, 0]
-        out.t[c, 1] = solved.t[i, 1]
-        out.ml[c] = solved.ml[i]
+        _copy_entry(out, c, solved, i, solved.s[i], sel[solved.w[i]])
         c += 1
     return out
