@@ -108,6 +108,11 @@ _WIDENINGS = 6
 _BISECTIONS = 10
 #: Largest change of the tip's reaction against growth over one increment, as a fraction of p pi r^2.
 _FORCE_STEP_FRACTION = 0.05
+#: Growth is not solved while the grown tip segment stays more than this many barrier gaps from every
+#: wall (no wall force reaches it, so the equilibrium behind it cannot change: _grow_free).
+_FREE_GAPS = 2.0
+#: ... looked for up to this many segments ahead.
+_FREE_SEGMENTS = 4
 
 
 def _law_table(n: int = 6000, x_max: float = 1e4) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
@@ -190,12 +195,13 @@ class SolveStats:
     escalated: int = 0
     reselected: int = 0
     budget_cuts: int = 0
+    skipped: int = 0
 
     def to_dict(self) -> dict:
         return {"solves": self.solves, "solve_failures": self.failures, "newton_iterations": self.newton_iterations,
                 "max_residual_ratio": self.max_residual_ratio, "rejoined_joints": self.rejoined,
                 "solve_retries": self.retried, "solve_escalations": self.escalated, "solve_reselections": self.reselected,
-                "solve_budget_cuts": self.budget_cuts}
+                "solve_budget_cuts": self.budget_cuts, "solves_skipped": self.skipped}
 
 
 class _Snapshot(NamedTuple):
@@ -304,6 +310,7 @@ class QuasiStaticSim(EversionSim):
         self._seg_moment = np.zeros(0)
         self._contact_segs: set[int] = set()
         self._tip_clearance = math.inf
+        self._free_until = -1.0  # the length (m) up to which the tip grows without a solve (-1: not known)
         self._grown = 0.0  # growth (m) the next solve follows (0: a solve in place), for its friction slip
         self._rejoin: tuple[int, int] | None = None  # (joint, solves since) of the last widening
         # barrier stiffness: 0.1 x the largest drive (8 kPa pi r^2) per barrier gap (N/m)
@@ -543,17 +550,25 @@ class QuasiStaticSim(EversionSim):
             step_pa = cfg.pressure_increment_fraction * max(self._p_solved, _P_SCALE_FLOOR)
             off = abs(p - self._p_solved)
             moved = off > step_pa or (off > 0.1 * step_pa and abs(self.regulator.command - p) <= 0.1 * step_pa)
-            if self._pending >= self._increment() or (moved and (self._contact_segs or self._pending > 0 or self._req_ahead > 0)) or (
-                    self._pending > 0 and self.length + self._pending >= self.design.length_m - 1e-12):
-                self._advance(p)
-            elif moved:
+            resolve = moved and (bool(self._contact_segs) or self._req_ahead > 0)
+            if moved and not resolve:  # no wall force: the new pressure moves nothing
                 self._apply_pressure(p)
                 self._p_solved = p
+            inc = self._increment()
+            if resolve or (self._pending > 0 and self.length + self._pending >= self.design.length_m - 1e-12):
+                self._advance(p, self._pending)
+            elif self._pending >= inc:
+                free = self._free_ahead()
+                if self._pending > free or (self._pending >= min(free, self.ds) and not self._grow_free(p, self._pending)):
+                    # whole increments, each solved; the rest waits for the next step's growth
+                    self._advance(p, inc * math.floor(self._pending / inc * (1 + 1e-12)))
             self.t += dt
             self.steps += 1
             self.growth_speed = v
             self._stall_update(v, dt)
             f_max = max(f_max, self._tip_force_norm)
+        if 0 < self._pending <= self._free_ahead():  # growth that needs no solve is not left pending
+            self._grow_free(self.pressure, self._pending)
         self._step_mean_pressure = p_sum / n_steps if n_steps > 0 else self.pressure
         self._step_max_contact = f_max
         self._show_pieces()
@@ -589,9 +604,10 @@ class QuasiStaticSim(EversionSim):
         self._u_all = u.copy()
         self._seg_force, self._seg_moment, self._contact_segs = seg_force.copy(), seg_moment.copy(), set(contact_segs)
         self.tip_contact = tip_contact.copy()
+        self._free_until = -1.0
 
-    def _advance(self, p: float) -> None:
-        """Grow by the pending length at pressure ``p`` in increments of at most
+    def _advance(self, p: float, length: float) -> None:
+        """Grow by ``length`` (m, at most the pending length) at pressure ``p`` in increments of at most
         ``growth_increment_m``, each solved to equilibrium.  An increment across which the wall's
         reaction against growth changes by more than :data:`_FORCE_STEP_FRACTION` of ``p pi r^2``
         is halved (down to 1/64 of the increment), so that a narrow rise of the reaction is seen
@@ -602,8 +618,8 @@ class QuasiStaticSim(EversionSim):
         self._apply_pressure(p)
         self._p_solved = p
         self._req_ahead = 0.0
-        remaining = self._pending
-        self._pending = 0.0
+        remaining = min(length, self._pending)
+        self._pending -= remaining
         if remaining <= 0:
             self._solve_in_place()
             self._publish()
@@ -631,10 +647,60 @@ class QuasiStaticSim(EversionSim):
                 self._publish()
                 continue
             self._cut_back(start, dl, p, self._required(self.tip_force) if ok else math.inf)
+            self._pending = 0.0  # (the tip stands where the pressure holds it: the rest is not grown)
             cut = True
             break
         if cut or self.cfg.flattening > 0:  # (else the state was published as it stands: publishing is idempotent)
             self._publish()
+
+    def _free_ahead(self) -> float:
+        """How far (m) the tip can grow without a solve: growth that cannot change the equilibrium, the
+        grown tip segment straight ahead of its base node staying more than :data:`_FREE_GAPS` barrier
+        gaps from every wall (no wall force on it before or after, and nothing else moves).  0 while a
+        wall touches the tip.  Found for :data:`_FREE_SEGMENTS` segments ahead, one, or an increment,
+        and kept until a solve or a restore changes the body."""
+        if self._free_until < 0:
+            self._free_until = self.length
+            if (len(self.seg_len) - 1) not in self._contact_segs and self.tip_force <= 0:
+                for dl in (_FREE_SEGMENTS * self.ds, self.ds, self.cfg.growth_increment_m):
+                    if self._gap_ahead(dl) > _FREE_GAPS * self.cfg.barrier_gap_m:
+                        self._free_until = self.length + dl
+                        break
+        return max(0.0, self._free_until - self.length)
+
+    def _grow_free(self, p: float, length: float) -> bool:
+        """Grow by ``length`` (m, at most :meth:`_free_ahead`) without a solve, if the tip's required
+        pressure stays within ``p`` (else nothing changes and it returns False: a band's threshold
+        reached the tip, and the growth is solved, to cut it back where the two meet).  The pressure of
+        the last solve is kept (a pressure that moves is solved by :meth:`_step`).  Counted in
+        ``solves_skipped``."""
+        start = self._snapshot()
+        grown, chunks = 0.0, 0
+        while grown < length - 1e-12:  # (at most a segment at a time: _grow splits once)
+            dl = min(self.ds, length - grown)
+            self._grow(dl)
+            grown += dl
+            chunks += 1
+        if self._required(0.0) > p * (1 + 1e-9):  # a band's threshold reached the tip: grow with solves
+            self._restore(start)
+            return False
+        self._stats.skipped += chunks
+        self._pending -= length
+        self._req_ahead = 0.0
+        self._publish()
+        return True
+
+    def _gap_ahead(self, dl: float) -> float:
+        """Smallest gap (m) between the walls and the tip segment grown straight by ``dl`` (m), at the
+        larger of its radius and the tube's; inf if no wall is within a segment of it."""
+        j = len(self.seg_len) - 1
+        nodes, theta = self._all_nodes()
+        reach = self.seg_len[j] + dl
+        seg = np.array([nodes[j], nodes[j] + reach * np.array([math.cos(theta[j]), math.sin(theta[j])])])
+        rad = max(float(self.seg_rad[j]), self.design.radius_m)
+        sel = self._query_walls(seg, rad + self.ds)
+        w = self._walls
+        return qk.segment_gap(seg, 0, rad, sel, qk.Walls(w.a, w.b, w.piece, w.vertex, w.radius), self._pc0, self._u_all)
 
     def _cut_back(self, start: _Snapshot, dl: float, p: float, req_end: float) -> None:
         """Find, from state ``start``, the growth in ``(0, dl)`` at which the tip's required pressure
@@ -893,9 +959,9 @@ class QuasiStaticSim(EversionSim):
             affordable = int(self._work_left / per_iteration)
             cut = budget > affordable  # the step's work budget ends this solve (_WORK_PER_S)
             budget = max(1, min(budget, affordable))
-            res = qk.solve_increment(problem, phi, phi_ref, u, win.s_nodes, win.robot_mu, win.wall_mu, win.entries,
-                                     qk.SolveSettings(tol_m, tol_f, budget, _MAX_MOVE_M, cfg.friction_lag_iterations,
-                                                      cfg.linear_solver == "semiseparable"))
+            settings = qk.SolveSettings(tol_m, tol_f, budget, _MAX_MOVE_M, cfg.friction_lag_iterations,
+                                        cfg.linear_solver == "semiseparable")
+            res = qk.solve_increment(problem, phi, phi_ref, u, win.s_nodes, win.robot_mu, win.wall_mu, win.entries, settings)
             status, it, res_m, res_f = res.status, res.iterations, res.residual_m, res.residual_f
             iters += it
             self._work_left -= it * per_iteration
@@ -947,6 +1013,7 @@ class QuasiStaticSim(EversionSim):
         self.tip_force = max(0.0, float(res.tip[0]))
         self.tip_contact = np.array([res.tip[1], res.tip[2]])
         self._tip_clearance = float(res.tip[3])
+        self._free_until = -1.0
         return True
 
     # ---- events, stalls ---------------------------------------------------------------------
