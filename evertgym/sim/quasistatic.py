@@ -511,10 +511,12 @@ class QuasiStaticSim(EversionSim):
 
     def step(self, n_steps: int = 1) -> None:
         """Advance the clock by ``n_steps`` steps of ``cfg.dt_s``: the regulator and the growth law
-        advance every step; the body is re-solved whenever the tip has grown by the increment or
-        the pressure has moved by ``cfg.pressure_increment_fraction`` since the last solve (of that
-        pressure, at least 1 kPa), and once more when the pressure has settled within a tenth of that
-        of its command: a held pressure is solved to within a tenth of the increment.
+        advance every step; the body is re-solved whenever the tip has grown by whole increments (the
+        rest waits for the next step's growth) or, while a wall touches it, the pressure has moved by
+        ``cfg.pressure_increment_fraction`` since the last solve (of that pressure, at least 1 kPa), and
+        once more when the pressure has settled within a tenth of that of its command: a held pressure
+        is solved to within a tenth of the increment.  Growth that no wall reaches is not solved
+        (:meth:`_free_ahead`), and none of it is left pending at the end of the call.
 
         A Ctrl-C (SIGINT) whose handler runs inside a compiled solve (numba calls back into Python to
         build the exceptions it raises and catches) surfaces, when the solve returns, as a chain of
