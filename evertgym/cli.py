@@ -480,6 +480,29 @@ def cmd_bands_fit(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_bands_critical(args: argparse.Namespace) -> int:
+    from evertgym.experiments.bend_model import critical_friction, critical_text, robot_means
+    from evertgym.experiments.paper import UBEND_RADII_MM
+    from evertgym.limits import check_workers
+    from evertgym.sim.variation import bend_model
+
+    check_workers(args.workers, args.force_workers, "--workers")
+    sim = _sim_overrides(args.sim)
+    radii = _number_list(args.radii, "--radii", 20.0, 40.0, "mm") or list(UBEND_RADII_MM)
+    if not (math.isfinite(args.reduction) and 0.0 <= args.reduction <= 0.5):
+        raise CLIError(f"--reduction = {args.reduction} is out of range: allowed [0, 0.5]")
+    _stores(args, "--db")
+    switches = {**bend_model()["switches"], **sim}
+    f = critical_friction(args.db, switches, [(args.reduction, r) for r in radii], args.workers, not args.json)
+    if args.json:
+        print(dumps({"physics": _physics(sim or None), "cells": [
+            {"reduction": red, "radius_mm": r, "robot_means": robot_means(v), "trials": [float(x) for x in v]} for (red, r), v in f.items()]}))
+        return 0
+    print("\n".join(critical_text(f)))
+    print(_physics(sim or None))
+    return 0
+
+
 def cmd_reproduce_ubend(args: argparse.Namespace) -> int:
     from evertgym.experiments.paper import plot_ubend, reproduce_ubend
 
@@ -978,6 +1001,17 @@ def build_parser() -> argparse.ArgumentParser:
     bf.add_argument("--force-workers", action="store_true", help="allow more --workers than CPUs")
     bf.add_argument("--json", action="store_true", help=_JSON_HELP)
     bf.set_defaults(func=cmd_bands_fit)
+    bc = _sub(bd_sub, "critical", "each U-bend trial's critical friction factor (the friction at which it stops passing), by "
+                                  "bisection on the default model, per robot and trial (resumable): how close a cell is to its knife edges")
+    bc.add_argument("--radii", default=None, help="inner radii (mm) to run, comma-separated, [20, 40] (default: the paper's nine)")
+    bc.add_argument("--reduction", type=float, default=0.0, help="the three bands' reduction, [0, 0.5] (default 0: no bands)")
+    bc.add_argument("--sim", default=None, help='SimConfig overrides as JSON, e.g. \'{"segment_length_m": 0.00375}\'')
+    bc.add_argument("--db", default="runs/bands_critical.sqlite", help="result store of every trial (resumable)")
+    bc.add_argument("--wait", type=float, default=60.0, help="seconds to wait for a store another process holds locked")
+    bc.add_argument("--workers", type=int, default=None, help="worker processes (default: one per core)")
+    bc.add_argument("--force-workers", action="store_true", help="allow more --workers than CPUs")
+    bc.add_argument("--json", action="store_true", help=_JSON_HELP)
+    bc.set_defaults(func=cmd_bands_critical)
 
     rc = _sub(rep_sub, "colon", "colon phantom case study (Fig. 5d)")
     rc.add_argument("--json", action="store_true", help=_JSON_HELP)

@@ -18,6 +18,7 @@ from evertgym.experiments.bend_model import (
     cell_loglik,
     fit_friction,
     pass_prob,
+    robot_means,
 )
 from evertgym.model.eversion import EversionThreshold, VariedThreshold, threshold_cv
 from evertgym.sim.band_laws import axial_share, hinged_band_near_tip
@@ -214,3 +215,38 @@ def test_halving_the_growth_increment_moves_no_bare_cell_by_more_than_one(tmp_pa
         counts.append({r["radius_mm"]: r["successes"] for r in out["rows"]})
         assert sum(r["unconverged_solves"] for r in out["rows"]) == 0
     assert all(abs(counts[0][r] - counts[1][r]) <= 1 for r in (40.0, 37.5)), counts
+
+
+def test_robot_means_are_each_robots_geometric_mean():
+    f = np.array([2.0] * 4 + [3.0, 3.0, 3.0, 12.0] + [1.0] * 4)
+    assert robot_means(f) == pytest.approx([2.0, 3.0 * 4.0 ** 0.25, 1.0])
+
+
+@pytest.mark.parametrize("argv, says", [
+    (["--reduction", "0.7"], "--reduction = 0.7 is out of range: allowed [0, 0.5]"),
+    (["--radii", "50"], "--radii = 50.0 is out of range: allowed [20, 40] mm"),
+    (["--sim", '{"segment_length_m": -1}'], "--sim: segment_length_m = -1 is out of range"),
+    (["--workers", "0"], "--workers"),
+])
+def test_bands_critical_refuses_bad_input_in_one_line(argv, says, capsys, tmp_path):
+    assert main(["bands", "critical", "--db", str(tmp_path / "c.sqlite"), *argv]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and says in err[0]
+    assert not (tmp_path / "c.sqlite").exists()
+
+
+def test_bands_critical_prints_each_cells_robots_and_trials(monkeypatch, capsys, tmp_path):
+    seen = {}
+
+    def fake(store, switches, cells, workers, progress):
+        seen.update(switches=switches, cells=cells)
+        return {c: np.full(12, 2.5) for c in cells}
+
+    monkeypatch.setattr("evertgym.experiments.bend_model.critical_friction", fake)
+    assert main(["bands", "critical", "--radii", "35,32.5", "--sim", '{"segment_length_m": 0.005}',
+                 "--db", str(tmp_path / "c.sqlite")]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert seen["cells"] == [(0.0, 35.0), (0.0, 32.5)]
+    assert seen["switches"]["segment_length_m"] == 0.005 and seen["switches"]["band_fold"] is True  # the adopted model's, and the override
+    assert out[2].split()[:5] == ["0.00", "35", "2.500", "2.500", "2.500"]
+    assert out[-1].startswith("physics: ") and '"segment_length_m": 0.005' in out[-1]

@@ -1,11 +1,13 @@
-"""scripts/engine_digest.py and scripts/solve_iterations.py: the bit-for-bit check of an engine change, and the
-solves by their Newton iterations; one line for bad input."""
+"""scripts/engine_digest.py, scripts/solve_iterations.py and scripts/kernel_parts.py: the bit-for-bit check of an
+engine change, the solves by their Newton iterations and the compiled solve's time per part; one line for bad input."""
 
 from __future__ import annotations
 
 import importlib.util
 import json
 from pathlib import Path
+
+import pytest
 
 SCRIPTS = Path(__file__).parents[1] / "scripts"
 
@@ -102,3 +104,23 @@ def test_sim_fields_reach_the_quasistatic_runs_and_bad_ones_get_one_line(capsys)
         assert digest_script.main(["--sim", bad]) == 2
         err = capsys.readouterr().err
         assert says in err and err.strip().count("\n") == 0
+
+
+parts_script = _load("kernel_parts")
+
+
+def test_kernel_parts_refuses_bad_input_in_one_line(capsys):
+    assert parts_script.main(["--windows", "0"]) == 2
+    assert capsys.readouterr().err.strip().splitlines() == ["--windows = 0 is out of range: allowed [1, 10000]"]
+    assert parts_script.main(["--env", "evertgym/Nope-v0"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("--env = 'evertgym/Nope-v0' is not an env id")
+
+
+@pytest.mark.slow
+def test_kernel_parts_times_every_part_of_captured_windows():
+    caps = parts_script.capture("evertgym/UBend-v0", 200, 200)
+    assert len(caps) == 200
+    r = parts_script.measure(caps, 2)
+    assert 0 < r["windows"] <= 200 and r["iterations"] > 0
+    assert all(r["us"][k] > 0 for k in ("gradient and Hessian", "linear solve", "first friction pass", "candidate listing"))

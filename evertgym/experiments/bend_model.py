@@ -140,6 +140,24 @@ def critical_friction(store: str | Path, switches: dict, cells: list[tuple[float
     return {c: np.array([math.exp(0.5 * (lo[(c, i)] + hi[(c, i)])) for i in range(TRIALS)]) for c in cells}
 
 
+def robot_means(f: np.ndarray) -> list[float]:
+    """Each fabricated robot's geometric-mean critical friction over its trials in a cell (trial ``i`` is
+    robot ``(i // 4) mod 3``, :mod:`evertgym.sim.variation`)."""
+    return [float(np.exp(np.mean(np.log(f[[i for i in range(len(f)) if (i // 4) % 3 == k]])))) for k in range(3)]
+
+
+def critical_text(f: dict[tuple[float, float], np.ndarray]) -> list[str]:
+    """The critical friction factors of :func:`critical_friction` as a table: per cell its robots' means and
+    its trials."""
+    lines = [f"critical friction factor f* (x the tip's and body's friction coefficients) per trial; {ROUNDS} bisection "
+             f"rounds in [{F_LO:g}, {F_HI:g}] (resolution {100 * (math.exp(math.log(F_HI / F_LO) / 2 ** ROUNDS) - 1):.1f}%)",
+             f"{'reduction':>9} {'radius mm':>9} {'robot 1':>8} {'robot 2':>8} {'robot 3':>8}  trials"]
+    for (red, r), v in f.items():
+        rob = robot_means(v)
+        lines.append(f"{red:>9.2f} {r:>9g} {rob[0]:>8.3f} {rob[1]:>8.3f} {rob[2]:>8.3f}  " + " ".join(f"{x:.3f}" for x in v))
+    return lines
+
+
 def fit_friction(f_bare: dict[float, np.ndarray]) -> dict:
     """The friction median and spread maximising the bare rows' log-likelihood, with profile-likelihood
     95% intervals (a drop of 1.92), on a grid of 0.5% in the median and 0.005 in the spread."""

@@ -427,8 +427,9 @@ class QuasiStaticSim(EversionSim):
         did not converge and were retried at half the length; not failures), ``solve_escalations``
         (solves that could not be shortened, a shortest increment, a cut-back or a pressure
         change, and were run again from their start with :data:`_ESCALATION` times the Newton
-        budget) and ``solve_budget_cuts`` (solves ended by the step's work budget, :data:`_WORK_PER_S`;
-        each is also a failure)."""
+        budget), ``solve_budget_cuts`` (solves ended by the step's work budget, :data:`_WORK_PER_S`;
+        each is also a failure) and ``solves_skipped`` (growth of at most a segment that no wall
+        reached, not solved: :meth:`_free_ahead`)."""
         return self._stats.to_dict()
 
     # ---- pressure, growth, clock -----------------------------------------------------
