@@ -517,7 +517,7 @@ class QuasiStaticSim(EversionSim):
         ``cfg.pressure_increment_fraction`` since the last solve (of that pressure, at least 1 kPa), and
         once more when the pressure has settled within a tenth of that of its command: a held pressure
         is solved to within a tenth of the increment.  Growth that no wall reaches is not solved
-        (:meth:`_free_ahead`), and none of it is left pending at the end of the call.
+        (:meth:`_free_ahead`).  Nothing depends on how the steps are split into calls.
 
         A Ctrl-C (SIGINT) whose handler runs inside a compiled solve (numba calls back into Python to
         build the exceptions it raises and catches) surfaces, when the solve returns, as a chain of
@@ -560,18 +560,15 @@ class QuasiStaticSim(EversionSim):
             inc = self._increment()
             if resolve or (self._pending > 0 and self.length + self._pending >= self.design.length_m - 1e-12):
                 self._advance(p, self._pending)
-            elif self._pending >= inc:
-                free = self._free_ahead()
-                if self._pending > free or (self._pending >= min(free, self.ds) and not self._grow_free(p, self._pending)):
-                    # whole increments, each solved; the rest waits for the next step's growth
-                    self._advance(p, inc * math.floor(self._pending / inc * (1 + 1e-12)))
+            elif self._pending >= inc:  # whole increments; the rest waits for the next clock step's growth
+                grow = inc * math.floor(self._pending / inc * (1 + 1e-12))
+                if grow > self._free_ahead() or not self._grow_free(p, grow):
+                    self._advance(p, grow)  # (each increment solved)
             self.t += dt
             self.steps += 1
             self.growth_speed = v
             self._stall_update(v, dt)
             f_max = max(f_max, self._tip_force_norm)
-        if 0 < self._pending <= self._free_ahead():  # growth that needs no solve is not left pending
-            self._grow_free(self.pressure, self._pending)
         self._step_mean_pressure = p_sum / n_steps if n_steps > 0 else self.pressure
         self._step_max_contact = f_max
         self._show_pieces()
@@ -690,6 +687,7 @@ class QuasiStaticSim(EversionSim):
         self._stats.skipped += chunks
         self._pending -= length
         self._req_ahead = 0.0
+        self._tip_clearance = self._gap_ahead(0.0)  # (the increment near a wall reads it: _increment)
         self._publish()
         return True
 
