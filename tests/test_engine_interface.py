@@ -52,3 +52,24 @@ def test_the_quasistatic_engine_builds_nothing_it_never_steps():
     assert not hasattr(qs, "bodies") and not hasattr(qs, "springs")
     dyn = EversionSim(design, scene=scene, config=SimConfig(engine="dynamic"))
     assert len(dyn.scene_handles.springs) and len(dyn.space.constraints) > len(dyn.scene_handles.springs)
+
+
+def test_no_function_of_the_engines_takes_more_than_12_parameters_or_runs_past_100_lines():
+    """A newcomer reads an engine function whole: none in ``evertgym/sim/`` has more than 12 parameters
+    (``self`` not counted) or more than 100 lines."""
+    import ast
+    from pathlib import Path
+
+    import evertgym.sim
+
+    root = Path(evertgym.sim.__file__).parent
+    offenders = []
+    for path in sorted(root.rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                a = node.args
+                params = [p.arg for p in a.posonlyargs + a.args + a.kwonlyargs if p.arg not in ("self", "cls")]
+                lines = (node.end_lineno or node.lineno) - node.lineno + 1
+                if len(params) > 12 or lines > 100:
+                    offenders.append(f"{path.relative_to(root)}:{node.name} ({len(params)} parameters, {lines} lines)")
+    assert offenders == []

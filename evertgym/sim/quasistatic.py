@@ -321,6 +321,8 @@ class QuasiStaticSim(EversionSim):
         self._band_joints = [np.nonzero(np.abs(self.nodes - b.position_m) <= 0.5 * b.width_m + 0.5 * self.ds)[0]
                              for b in design.bands]
         self._band_centres = np.array([b.position_m for b in design.bands], float)
+        self._band_ends = [b.position_m + 0.5 * b.width_m for b in design.bands]  # (m) where each band is wholly everted
+        self._moments = np.zeros(0)  # the joints' moments (N m) last published
         self._seg_r0: dict[int, float] = {}  # per full segment: its radius unflattened (m)
         self._apply_pressure(0.0)
         with one_blas_thread():
@@ -512,12 +514,12 @@ class QuasiStaticSim(EversionSim):
 
     def step(self, n_steps: int = 1) -> None:
         """Advance the clock by ``n_steps`` steps of ``cfg.dt_s``: the regulator and the growth law
-        advance every step; the body is re-solved whenever the tip has grown by whole increments (the
-        rest waits for the next step's growth) or, while a wall touches it, the pressure has moved by
-        ``cfg.pressure_increment_fraction`` since the last solve (of that pressure, at least 1 kPa), and
-        once more when the pressure has settled within a tenth of that of its command: a held pressure
-        is solved to within a tenth of the increment.  Growth that no wall reaches is not solved
-        (:meth:`_free_ahead`).  Nothing depends on how the steps are split into calls.
+        advance every step; the body is re-solved whenever the tip has grown by the increment or the
+        pressure has moved by ``cfg.pressure_increment_fraction`` since the last solve (of that pressure,
+        at least 1 kPa), and once more when the pressure has settled within a tenth of that of its
+        command: a held pressure is solved to within a tenth of the increment.  Growth that no wall
+        reaches is not solved (:meth:`_free_ahead`), nor is a pressure change while no wall acts on the
+        body.  Nothing depends on how the steps are split into calls.
 
         A Ctrl-C (SIGINT) whose handler runs inside a compiled solve (numba calls back into Python to
         build the exceptions it raises and catches) surfaces, when the solve returns, as a chain of
@@ -553,17 +555,19 @@ class QuasiStaticSim(EversionSim):
             step_pa = cfg.pressure_increment_fraction * max(self._p_solved, _P_SCALE_FLOOR)
             off = abs(p - self._p_solved)
             moved = off > step_pa or (off > 0.1 * step_pa and abs(self.regulator.command - p) <= 0.1 * step_pa)
-            resolve = moved and (bool(self._contact_segs) or self._req_ahead > 0)
-            if moved and not resolve:  # no wall force: the new pressure moves nothing
+            walls_act = bool(self._contact_segs) or self._req_ahead > 0
+            if self._pending >= self._increment() or (moved and (walls_act or self._pending > 0)) or (
+                    self._pending > 0 and self.length + self._pending >= self.design.length_m - 1e-12):
+                # grow the pending length: without a solve if no wall can reach the tip and the pressure
+                # moves nothing (_free_ahead), else in solved increments
+                if (moved and walls_act) or not 0 < self._pending <= self._free_ahead() or not self._grow_free(p, self._pending):
+                    self._advance(p, self._pending)
+                elif moved:
+                    self._apply_pressure(p)
+                    self._p_solved = p
+            elif moved:
                 self._apply_pressure(p)
                 self._p_solved = p
-            inc = self._increment()
-            if resolve or (self._pending > 0 and self.length + self._pending >= self.design.length_m - 1e-12):
-                self._advance(p, self._pending)
-            elif self._pending >= inc:  # whole increments; the rest waits for the next clock step's growth
-                grow = inc * math.floor(self._pending / inc * (1 + 1e-12))
-                if grow > self._free_ahead() or not self._grow_free(p, grow):
-                    self._advance(p, grow)  # (each increment solved)
             self.t += dt
             self.steps += 1
             self.growth_speed = v
@@ -607,7 +611,7 @@ class QuasiStaticSim(EversionSim):
         self._free_until = -1.0
 
     def _advance(self, p: float, length: float) -> None:
-        """Grow by ``length`` (m, at most the pending length) at pressure ``p`` in increments of at most
+        """Grow by ``length`` (m, the pending length) at pressure ``p`` in increments of at most
         ``growth_increment_m``, each solved to equilibrium.  An increment across which the wall's
         reaction against growth changes by more than :data:`_FORCE_STEP_FRACTION` of ``p pi r^2``
         is halved (down to 1/64 of the increment), so that a narrow rise of the reaction is seen
@@ -674,22 +678,47 @@ class QuasiStaticSim(EversionSim):
         reached the tip, and the growth is solved, to cut it back where the two meet).  The pressure of
         the last solve is kept (a pressure that moves is solved by :meth:`_step`).  Counted in
         ``solves_skipped``."""
-        start = self._snapshot()
+        start = None
+        if self._required_may_change(self.length, self.length + length):
+            start = self._snapshot()
+        elif self._required(0.0) > p * (1 + 1e-9):  # (the same before and after this growth)
+            return False
         grown, chunks = 0.0, 0
         while grown < length - 1e-12:  # (at most a segment at a time: _grow splits once)
             dl = min(self.ds, length - grown)
             self._grow(dl)
             grown += dl
             chunks += 1
-        if self._required(0.0) > p * (1 + 1e-9):  # a band's threshold reached the tip: grow with solves
+        if start is not None and self._required(0.0) > p * (1 + 1e-9):  # a band reached the tip: grow with solves
             self._restore(start)
             return False
         self._stats.skipped += chunks
         self._pending -= length
         self._req_ahead = 0.0
         self._tip_clearance = self._gap_ahead(0.0)  # (the increment near a wall reads it: _increment)
-        self._publish()
+        self._publish_growth()
         return True
+
+    def _required_may_change(self, a: float, b: float) -> bool:
+        """Whether the tip's required pressure with no wall force may differ between lengths ``a`` and ``b``
+        (m): a band's strip or the end of one lies between them, or the tail's weight or the fold's pinch counts."""
+        return (self.vertical_tail or self.cfg.fold_pinch_per_rad > 0 or any(lo <= b and hi >= a for lo, hi in self._band_zones)
+                or any(a < end <= b for end in self._band_ends))
+
+    def _publish_growth(self) -> None:
+        """:meth:`_publish` after growth that moved nothing: the joints, the wall forces and the tip's contact
+        are those published last, so only what reads the length is updated (the band events and the band
+        hinge's reach; a new joint carries no moment).  With flattening or the axial load, all of it."""
+        if self.cfg.flattening > 0 or self.cfg.axial_load:
+            self._publish()
+            return
+        self._band_events()
+        if self.cfg.band_hinge_relief > 0:
+            n = len(self.phi)
+            moments = np.concatenate([self._moments, np.zeros(n - len(self._moments))]) if len(self._moments) < n else self._moments
+            hinged = hinged_band_near_tip(moments, self._mw_all[:n], self._band_joints, self._band_centres, self.length,
+                                          self.cfg.band_hinge_reach_m)
+            self._tip_mu = self.cfg.tip_friction * (1.0 - self.cfg.band_hinge_relief) if hinged else self.cfg.tip_friction
 
     def _gap_ahead(self, dl: float) -> float:
         """Smallest gap (m) between the walls and the tip segment grown straight by ``dl`` (m), at the
@@ -833,6 +862,7 @@ class QuasiStaticSim(EversionSim):
         self._band_events()
         n = len(self.phi)
         moments, kinked = qk.kinked_joints(self.phi, qk.Joints(self._k_all[:n], self._mw_all[:n]), _LAW_TABLE, KINK_MOMENT_FRACTION)
+        self._moments = moments
         self._kink_events(kinked, moments, 2.0 * self._mw_all[:n])
         if self.cfg.band_hinge_relief > 0:
             hinged = hinged_band_near_tip(moments, self._mw_all[:n], self._band_joints, self._band_centres, self.length,
@@ -842,15 +872,13 @@ class QuasiStaticSim(EversionSim):
     # ---- geometry queries ---------------------------------------------------------------------
     def _query_walls(self, pts: np.ndarray, reach: float) -> np.ndarray:
         """Indices of the wall features whose boxes come within ``reach`` (m) of ``pts``' box: the
-        pymunk shapes' boxes at rest, grown by the compliant wall's travel (a vectorised box test,
+        pymunk shapes' boxes at rest, grown by the compliant wall's travel (a compiled box test,
         cheaper than pymunk's callback per shape)."""
         if not len(self._walls.a):
             return np.zeros(0, np.int64)
         lo = pts.min(axis=0) - reach
         hi = pts.max(axis=0) + reach
-        blo, bhi = self._feature_boxes
-        hit = np.all(bhi >= lo, axis=1) & np.all(blo <= hi, axis=1)
-        return np.nonzero(hit)[0]
+        return qk.boxes_near(*self._feature_boxes, lo, hi)
 
     def _segment_gap(self, k: int) -> float:
         """Smallest gap (m) between segment ``k`` and a wall within a segment's length of it."""

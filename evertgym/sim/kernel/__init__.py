@@ -54,7 +54,7 @@ from evertgym.sim.kernel.bundles import (
     Window,
     WindowQuery,
 )
-from evertgym.sim.kernel.contacts import contacts, overlaps, segment_gap, select_features, touching
+from evertgym.sim.kernel.contacts import boxes_near, contacts, overlaps, segment_gap, select_features, touching
 from evertgym.sim.kernel.geometry import chain_nodes, max_node_shift
 from evertgym.sim.kernel.newton import CONVERGED, INFEASIBLE_START, LINE_SEARCH_FAILED, MAX_ITERATIONS, solve
 from evertgym.sim.kernel.terms import joint_moments, kinked_joints
@@ -103,6 +103,6 @@ __all__ = [
     "BARRIER_DRIVE_PA", "BARRIER_STIFFNESS_FRACTION", "Body", "CONVERGED", "Chain", "ContactLaw", "Entries", "Friction",
     "INFEASIBLE_START", "Joints", "LINE_SEARCH_FAILED", "LawTable", "MAX_ITERATIONS", "Pieces", "Problem", "ScenePieces", "SceneWalls",
     "SolveResult", "SolveSettings", "Walls", "Window", "WindowQuery", "barrier_stiffness", "chain_nodes", "contacts", "gather_walls",
-    "joint_moments", "kinked_joints", "max_node_shift", "merge_friction", "overlaps", "piece_window", "segment_gap", "select_features",
+    "joint_moments", "kinked_joints", "max_node_shift", "merge_friction", "overlaps", "piece_window", "segment_gap", "select_features", "boxes_near",
     "solve", "solve_increment", "touching", "window_friction", "window_setup",
 ]

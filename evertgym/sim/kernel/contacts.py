@@ -316,6 +316,18 @@ def select_features(nodes: np.ndarray, seg_rad: np.ndarray, box_lo: np.ndarray, 
 
 
 @nb.njit(cache=True, nogil=True)
+def boxes_near(box_lo: np.ndarray, box_hi: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Indices of the boxes (``box_lo``, ``box_hi``: (n, 2), m) that meet the box ``lo``-``hi`` (m), in order."""
+    out = np.empty(box_lo.shape[0], np.int64)
+    cnt = 0
+    for f in range(box_lo.shape[0]):
+        if box_hi[f, 0] >= lo[0] and box_hi[f, 1] >= lo[1] and box_lo[f, 0] <= hi[0] and box_lo[f, 1] <= hi[1]:
+            out[cnt] = f
+            cnt += 1
+    return out[:cnt]
+
+
+@nb.njit(cache=True, nogil=True)
 def segment_gap(nodes: np.ndarray, k: int, rad_k: float, sel: np.ndarray, walls: Walls, pc0: np.ndarray, u: np.ndarray) -> float:
     """Smallest gap (m) between segment ``k`` of the chain ``nodes`` (radius ``rad_k``) and the wall
     segments among the features ``sel`` (vertices skipped), each piece's where its displacement ``u``
