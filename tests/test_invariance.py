@@ -154,9 +154,6 @@ def test_quasistatic_settings_vary_only_its_own_numerical_knobs():
 
 @pytest.mark.slow
 @pytest.mark.timeout(5400)
-@pytest.mark.xfail(strict=True, reason="a miss of the default (docs/bands.md, docs/quasistatic.md#invariance): the growth increment "
-                   "halved moves the bare robot's 35 mm U-bend cell by 2 of 4 (its critical friction falls about 1% per halving, "
-                   "past the fitted median) and the bare colon stall between its two branches, 428 and 437 mm at 8 kPa")
 def test_quasistatic_invariance(tmp_path):
     """The quasi-static engine's invariance criteria (a subset of the U-bend table: the five paper radii from 40 to 20 mm, 4
     trials per cell; both colon robots; the operator on 50 held-out Colon-v0 episodes): the growth
