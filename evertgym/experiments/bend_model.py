@@ -39,6 +39,7 @@ import numpy as np
 from scipy.special import gammaln, ndtr
 
 from evertgym.experiments.paper import PAPER_10, PAPER_BARE, UBEND_RADII_MM, _run, colon_specs, ubend_specs
+from evertgym.sim.variation import Variation, robot_index
 
 #: the 10% cells two band parameters may be fitted on (measurements.json's rule)
 BAND_CAL_RADII = (30.0, 25.0)
@@ -141,9 +142,11 @@ def critical_friction(store: str | Path, switches: dict, cells: list[tuple[float
 
 
 def robot_means(f: np.ndarray) -> list[float]:
-    """Each fabricated robot's geometric-mean critical friction over its trials in a cell (trial ``i`` is
-    robot ``(i // 4) mod 3``, :mod:`evertgym.sim.variation`)."""
-    return [float(np.exp(np.mean(np.log(f[[i for i in range(len(f)) if (i // 4) % 3 == k]])))) for k in range(3)]
+    """Each fabricated robot's geometric-mean critical friction over its trials in a cell (trial ``i``, seeded ``i``,
+    uses robot :func:`~evertgym.sim.variation.robot_index`)."""
+    v, rng = Variation.calibrated(), np.random.default_rng(0)  # (a seeded trial's robot does not draw from rng)
+    robot = np.array([robot_index(v, i, rng) for i in range(len(f))])
+    return [float(np.exp(np.mean(np.log(f[robot == k])))) for k in range(v.robots)]
 
 
 def critical_text(f: dict[tuple[float, float], np.ndarray]) -> list[str]:

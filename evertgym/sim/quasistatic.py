@@ -561,7 +561,7 @@ class QuasiStaticSim(EversionSim):
                 # grow the pending length: without a solve if no wall can reach the tip and the pressure
                 # moves nothing (_free_ahead), else in solved increments
                 if (moved and walls_act) or not 0 < self._pending <= self._free_ahead() or not self._grow_free(p, self._pending):
-                    self._advance(p, self._pending)
+                    self._advance(p)
                 elif moved:
                     self._apply_pressure(p)
                     self._p_solved = p
@@ -610,8 +610,8 @@ class QuasiStaticSim(EversionSim):
         self.tip_contact = tip_contact.copy()
         self._free_until = -1.0
 
-    def _advance(self, p: float, length: float) -> None:
-        """Grow by ``length`` (m, the pending length) at pressure ``p`` in increments of at most
+    def _advance(self, p: float) -> None:
+        """Grow by the pending length at pressure ``p`` in increments of at most
         ``growth_increment_m``, each solved to equilibrium.  An increment across which the wall's
         reaction against growth changes by more than :data:`_FORCE_STEP_FRACTION` of ``p pi r^2``
         is halved (down to 1/64 of the increment), so that a narrow rise of the reaction is seen
@@ -622,8 +622,8 @@ class QuasiStaticSim(EversionSim):
         self._apply_pressure(p)
         self._p_solved = p
         self._req_ahead = 0.0
-        remaining = min(length, self._pending)
-        self._pending -= remaining
+        remaining = self._pending
+        self._pending = 0.0
         if remaining <= 0:
             self._solve_in_place()
             self._publish()
@@ -651,7 +651,6 @@ class QuasiStaticSim(EversionSim):
                 self._publish()
                 continue
             self._cut_back(start, dl, p, self._required(self.tip_force) if ok else math.inf)
-            self._pending = 0.0  # (the tip stands where the pressure holds it: the rest is not grown)
             cut = True
             break
         if cut or self.cfg.flattening > 0:  # (else the state was published as it stands: publishing is idempotent)
@@ -713,10 +712,15 @@ class QuasiStaticSim(EversionSim):
             self._publish()
             return
         self._band_events()
+        n = len(self.phi)
+        moments = self._moments[:n]
+        self._update_tip_mu(np.concatenate([moments, np.zeros(n - len(moments))]))  # (a new joint carries no moment)
+
+    def _update_tip_mu(self, moments: np.ndarray) -> None:
+        """The tip's friction coefficient for the next solve: lowered by ``band_hinge_relief`` while a wrinkled band
+        lies within ``band_hinge_reach_m`` behind the tip (``moments``: the joints' moments, N m)."""
         if self.cfg.band_hinge_relief > 0:
-            n = len(self.phi)
-            moments = np.concatenate([self._moments, np.zeros(n - len(self._moments))]) if len(self._moments) < n else self._moments
-            hinged = hinged_band_near_tip(moments, self._mw_all[:n], self._band_joints, self._band_centres, self.length,
+            hinged = hinged_band_near_tip(moments, self._mw_all[:len(moments)], self._band_joints, self._band_centres, self.length,
                                           self.cfg.band_hinge_reach_m)
             self._tip_mu = self.cfg.tip_friction * (1.0 - self.cfg.band_hinge_relief) if hinged else self.cfg.tip_friction
 
@@ -864,10 +868,7 @@ class QuasiStaticSim(EversionSim):
         moments, kinked = qk.kinked_joints(self.phi, qk.Joints(self._k_all[:n], self._mw_all[:n]), _LAW_TABLE, KINK_MOMENT_FRACTION)
         self._moments = moments
         self._kink_events(kinked, moments, 2.0 * self._mw_all[:n])
-        if self.cfg.band_hinge_relief > 0:
-            hinged = hinged_band_near_tip(moments, self._mw_all[:n], self._band_joints, self._band_centres, self.length,
-                                          self.cfg.band_hinge_reach_m)
-            self._tip_mu = self.cfg.tip_friction * (1.0 - self.cfg.band_hinge_relief) if hinged else self.cfg.tip_friction
+        self._update_tip_mu(moments)
 
     # ---- geometry queries ---------------------------------------------------------------------
     def _query_walls(self, pts: np.ndarray, reach: float) -> np.ndarray:

@@ -102,7 +102,7 @@ def barrier_stiffness(radius_m: float, dhat_m: float) -> float:
 __all__ = [
     "BARRIER_DRIVE_PA", "BARRIER_STIFFNESS_FRACTION", "Body", "CONVERGED", "Chain", "ContactLaw", "Entries", "Friction",
     "INFEASIBLE_START", "Joints", "LINE_SEARCH_FAILED", "LawTable", "MAX_ITERATIONS", "Pieces", "Problem", "ScenePieces", "SceneWalls",
-    "SolveResult", "SolveSettings", "Walls", "Window", "WindowQuery", "barrier_stiffness", "chain_nodes", "contacts", "gather_walls",
-    "joint_moments", "kinked_joints", "max_node_shift", "merge_friction", "overlaps", "piece_window", "segment_gap", "select_features", "boxes_near",
+    "SolveResult", "SolveSettings", "Walls", "Window", "WindowQuery", "barrier_stiffness", "boxes_near", "chain_nodes", "contacts", "gather_walls",
+    "joint_moments", "kinked_joints", "max_node_shift", "merge_friction", "overlaps", "piece_window", "segment_gap", "select_features",
     "solve", "solve_increment", "touching", "window_friction", "window_setup",
 ]
