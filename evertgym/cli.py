@@ -548,7 +548,8 @@ def cmd_reproduce_ubend(args: argparse.Namespace) -> int:
               f"({100 * sv['failure_share']:.3f}%, in {sv['trials_with_failures']} trials; largest residual "
               f"{sv['max_residual_ratio']:.2g} of p pi r^2); increments retried at half length: {sv['solve_retries']}, "
               f"solves rerun with a larger Newton budget: {sv['solve_escalations']}, "
-              f"rerun seeing farther walls: {sv['solve_reselections']}")
+              f"rerun seeing farther walls: {sv['solve_reselections']}, "
+              f"friction lag still changing after its re-solves: {sv['friction_lag_unconverged']}")
     print(f"time: {result['wall_s']:.1f} s (store: {args.db})")
     print(_physics(sim))
     if args.anatomy:

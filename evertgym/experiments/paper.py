@@ -147,8 +147,9 @@ def solve_totals(records) -> dict:
     ``solve_failures`` (ended above the tolerance), ``failure_share``, the largest final
     residual ratio, ``solve_retries`` (growth increments retried at half their length after a
     solve that did not converge), ``solve_escalations`` (solves that could not be shortened,
-    run again with a larger Newton budget) and ``solve_reselections`` (solves run again seeing the
-    walls farther out, having moved past those they saw); empty counts for the dynamic engine."""
+    run again with a larger Newton budget), ``solve_reselections`` (solves run again seeing the
+    walls farther out, having moved past those they saw) and ``friction_lag_unconverged`` (solves whose
+    friction lag ended with the normal forces still changing); empty counts for the dynamic engine."""
     solves = sum(int(r.result.get("solves", 0)) for r in records)
     failures = sum(int(r.result.get("solve_failures", 0)) for r in records)
     worst = max((float(r.result.get("max_residual_ratio", 0.0)) for r in records), default=0.0)
@@ -156,7 +157,8 @@ def solve_totals(records) -> dict:
             "max_residual_ratio": worst, "trials_with_failures": sum(int(r.result.get("solve_failures", 0)) > 0 for r in records),
             "solve_retries": sum(int(r.result.get("solve_retries", 0)) for r in records),
             "solve_escalations": sum(int(r.result.get("solve_escalations", 0)) for r in records),
-            "solve_reselections": sum(int(r.result.get("solve_reselections", 0)) for r in records)}
+            "solve_reselections": sum(int(r.result.get("solve_reselections", 0)) for r in records),
+            "friction_lag_unconverged": sum(int(r.result.get("friction_lag_unconverged", 0)) for r in records)}
 
 
 UBEND_JAM_LEAD = (("design", "design"), ("radius mm", "radius_mm"), ("passed", "passed"))

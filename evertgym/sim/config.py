@@ -100,7 +100,10 @@ class SimConfig:
         growth; below it static friction lets it creep, so the creep per metre of growth, not per increment,
         is fixed, and halving the increment does not add creep), ``friction_slip_m`` (optional: a fixed
         travel per solve instead, in m, which makes the creep grow as the increment shrinks),
-        ``friction_lag_iterations`` (re-solves with the normal forces updated),
+        ``friction_lag_iterations`` (the most re-solves with the normal forces updated, until they stop
+        changing; a solve whose lag is cut short is counted in ``friction_lag_unconverged``: its friction
+        comes from forces one re-solve old, an error of the order of the increment, so the default iterates
+        the lag to convergence and the outcomes do not move with ``growth_increment_m``, docs/quasistatic.md),
         ``max_newton_iterations`` and ``pressure_increment_fraction`` (the pressure change, as a fraction
         of the last solve's pressure and at least of 1 kPa, after which the body is re-solved while it
         touches a wall or is growing), ``linear_solver`` (how a Newton step's linear system is solved:
@@ -162,12 +165,12 @@ class SimConfig:
     relax_force_n: float = _setting(0.0, "dynamic")
     max_relax_steps: int = _setting(50, "dynamic")
     # ---- the quasi-static engine (evertgym.sim.quasistatic) ----
-    growth_increment_m: float = _setting(0.0005, "quasistatic")
+    growth_increment_m: float = _setting(0.001, "quasistatic")
     solver_tolerance: float = _setting(1e-3, "quasistatic")
     barrier_gap_m: float = _setting(0.001, "quasistatic")
     friction_slip_fraction: float = _setting(0.01, "quasistatic")
     friction_slip_m: float | None = _setting(None, "quasistatic")
-    friction_lag_iterations: int = _setting(1, "quasistatic")
+    friction_lag_iterations: int = _setting(8, "quasistatic")
     max_newton_iterations: int = _setting(60, "quasistatic")
     pressure_increment_fraction: float = _setting(0.05, "quasistatic")
     linear_solver: str = _setting("semiseparable", "quasistatic")

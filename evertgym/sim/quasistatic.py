@@ -15,7 +15,8 @@ inertia or damping to tune (``shared/notes/bend-physics.md``, sections 8-9):
   rod-derived stiffness scaled with ``E_eff(p)``, wrinkling at ``p pi r^3 / 2``, the
   tension-field law to the kink plateau), IPC log barriers on every robot-wall capsule gap
   (``barrier_gap_m``), Coulomb friction lagged per increment (the wall's normal force and
-  tangent from the last solution, iterated ``friction_lag_iterations`` times, sliding beyond
+  tangent from the last solution, re-solved until they stop changing, at most ``friction_lag_iterations``
+  times; a lag cut short is counted, ``friction_lag_unconverged``), sliding beyond
   ``friction_slip_fraction`` of the increment's growth in tangential travel; a contact sticks below ``mu N``) and
   the compliant wall's linear springs and travel stop.  The solve stops on a force criterion:
   every unbalanced joint moment below ``solver_tolerance p pi r^3`` and every unbalanced
@@ -196,12 +197,14 @@ class SolveStats:
     reselected: int = 0
     budget_cuts: int = 0
     skipped: int = 0
+    lag_unconverged: int = 0
 
     def to_dict(self) -> dict:
         return {"solves": self.solves, "solve_failures": self.failures, "newton_iterations": self.newton_iterations,
                 "max_residual_ratio": self.max_residual_ratio, "rejoined_joints": self.rejoined,
                 "solve_retries": self.retried, "solve_escalations": self.escalated, "solve_reselections": self.reselected,
-                "solve_budget_cuts": self.budget_cuts, "solves_skipped": self.skipped}
+                "solve_budget_cuts": self.budget_cuts, "solves_skipped": self.skipped,
+                "friction_lag_unconverged": self.lag_unconverged}
 
 
 class _Snapshot(NamedTuple):
@@ -430,8 +433,9 @@ class QuasiStaticSim(EversionSim):
         (solves that could not be shortened, a shortest increment, a cut-back or a pressure
         change, and were run again from their start with :data:`_ESCALATION` times the Newton
         budget), ``solve_budget_cuts`` (solves ended by the step's work budget, :data:`_WORK_PER_S`;
-        each is also a failure) and ``solves_skipped`` (growth of at most a segment that no wall
-        reached, not solved: :meth:`_free_ahead`)."""
+        each is also a failure), ``solves_skipped`` (growth of at most a segment that no wall
+        reached, not solved: :meth:`_free_ahead`) and ``friction_lag_unconverged`` (committed solves whose
+        normal forces were still changing after ``friction_lag_iterations`` re-solves)."""
         return self._stats.to_dict()
 
     # ---- pressure, growth, clock -----------------------------------------------------
@@ -1020,6 +1024,7 @@ class QuasiStaticSim(EversionSim):
             self._retry_wanted = True
             return True
         self._stats.max_residual_ratio = max(self._stats.max_residual_ratio, ratio)
+        self._stats.lag_unconverged += not res.lag_converged
         if status != qk.CONVERGED:
             self._stats.failures += 1
             self._event("solve_failed", status=int(status), residual=round(ratio, 6))

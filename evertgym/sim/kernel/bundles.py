@@ -132,7 +132,8 @@ class SolveResult(NamedTuple):
     lagged friction ``entries``, the wall forces per segment ``seg_force`` (m, 2; N) and their moments
     about the origin ``seg_moment`` (m; N m), ``tip`` = ``(F_tip, fx, fy, gap)`` (the reaction against
     growth and the total force on the tip segment, N; the tip segment's smallest gap, m) and the
-    contact ``rows`` at the end (:func:`evertgym.sim.kernel.contacts.pair_rows`)."""
+    contact ``rows`` at the end (:func:`evertgym.sim.kernel.contacts.pair_rows`); ``lag_converged``: whether
+    the friction lag's normal forces stopped changing within its re-solves."""
 
     status: int
     iterations: int
@@ -143,6 +144,7 @@ class SolveResult(NamedTuple):
     seg_moment: np.ndarray
     tip: np.ndarray
     rows: np.ndarray
+    lag_converged: bool
 
 
 class Body(NamedTuple):

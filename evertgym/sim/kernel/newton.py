@@ -335,7 +335,9 @@ def solve_increment(problem: Problem, phi: np.ndarray, phi_ref: np.ndarray, u: n
     until they stop changing).  Friction resists slip from the configuration before the call,
     ``phi_ref`` (``phi`` may hold a predicted start); ``phi`` and ``u`` are updated in place.
     ``robot_mu`` per segment and ``wall_mu`` per feature: the friction coefficients; ``entries`` the
-    lagged friction at the start."""
+    lagged friction at the start.  The result says whether the normal forces stopped changing
+    (``lag_converged``): a lag cut short leaves friction from forces one re-solve old, an error of the
+    order of the growth increment."""
     chain = problem.chain
     pc0 = problem.pieces.pc0
     dhat = problem.contact.dhat
@@ -352,6 +354,7 @@ def solve_increment(problem: Problem, phi: np.ndarray, phi_ref: np.ndarray, u: n
     res_m = 0.0
     res_f = 0.0
     rows = np.zeros((0, 11))
+    lag_converged = False
     for lag in range(settings.lag_iterations + 1):
         fr = resolve(entries, start_nodes, s_nodes, chain.seg_len, problem.walls.piece, pc0, u0)
         status, it, res_m, res_f = solve(problem, phi, u, fr, settings, wide)
@@ -367,12 +370,12 @@ def solve_increment(problem: Problem, phi: np.ndarray, phi_ref: np.ndarray, u: n
         wide_now = True
         rows = rows_where(wide, dhat)
         fresh = new_entries(rows, s_nodes, chain.seg_len, robot_mu, wall_mu, problem.walls, pc0, u, problem.contact)
-        done = same_entries(entries, fresh, settings.tol_f)
+        lag_converged = same_entries(entries, fresh, settings.tol_f)
         entries = fresh
-        if done or lag == settings.lag_iterations:
+        if lag_converged or lag == settings.lag_iterations:
             break
     fr = resolve(entries, start_nodes, s_nodes, chain.seg_len, problem.walls.piece, pc0, u0)
     if not wide_now:
         wide = pair_rows(chain, phi, problem.walls, pc0, u, cand, dhat, WIDE_REACH_M)
     acc_f, acc_m, tip = segment_forces(problem, phi, u, wide, fr)
-    return SolveResult(status, iters, res_m, res_f, entries, acc_f, acc_m, tip, rows)
+    return SolveResult(status, iters, res_m, res_f, entries, acc_f, acc_m, tip, rows, lag_converged)
