@@ -170,7 +170,7 @@ class SimConfig:
     barrier_gap_m: float = _setting(0.001, "quasistatic")
     friction_slip_fraction: float = _setting(0.01, "quasistatic")
     friction_slip_m: float | None = _setting(None, "quasistatic")
-    friction_lag_iterations: int = _setting(8, "quasistatic")
+    friction_lag_iterations: int = _setting(12, "quasistatic")
     max_newton_iterations: int = _setting(60, "quasistatic")
     pressure_increment_fraction: float = _setting(0.05, "quasistatic")
     linear_solver: str = _setting("semiseparable", "quasistatic")
