@@ -165,7 +165,7 @@ class SimConfig:
     relax_force_n: float = _setting(0.0, "dynamic")
     max_relax_steps: int = _setting(50, "dynamic")
     # ---- the quasi-static engine (evertgym.sim.quasistatic) ----
-    growth_increment_m: float = _setting(0.001, "quasistatic")
+    growth_increment_m: float = _setting(0.0005, "quasistatic")
     solver_tolerance: float = _setting(1e-3, "quasistatic")
     barrier_gap_m: float = _setting(0.001, "quasistatic")
     friction_slip_fraction: float = _setting(0.01, "quasistatic")
