@@ -484,7 +484,7 @@ class QuasiStaticSim(EversionSim):
         tail_base = self._bare_threshold[0] * self._bare_threshold[1]
         mu_b = self.cfg.bend_loss_per_rad
         return [(self.design.radius_m * (1.0 - b.reduction), tail_base * math.exp(mu_b * turn))
-                for b, turn in zip(self.design.bands, self._band_turn) if b.position_m + 0.5 * b.width_m <= self.length]
+                for b, turn, end in zip(self.design.bands, self._band_turn, self._band_ends) if end <= self.length]
 
     @property
     def push_capacity(self) -> float:
