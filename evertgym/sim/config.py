@@ -119,7 +119,8 @@ class SimConfig:
         ``band_eversion_threshold``: False removes the calibrated threshold of a band at the tip (a
         counterfactual of the study).  ``flattening``: the bare tube's largest cross-section flattening
         past wrinkling (a fraction of the radius; a band adds its reduction): the collision radius and
-        the collapse moment shrink with it.  ``axial_load``: the wall's moment capacity at a section falls
+        the collapse moment shrink with it.  ``joint_softening``: a joint's moment falls past its peak by this fraction (Brazier's
+        ovalisation; candidate (b) of docs/bands.md).  ``axial_load``: the wall's moment capacity at a section falls
         with the axial load it carries, the tip's push and the tail's tension against ``p pi r(s)^2``
         (first at bands).  ``band_hinge_relief`` and ``band_hinge_reach_m``: the phenomenological band
         law, the tip's friction coefficient lowered by this fraction while a wrinkled band lies within
@@ -178,6 +179,7 @@ class SimConfig:
     fold_pinch_per_rad: float = _setting(_MODEL.get("fold_pinch_per_rad", 0.0), "quasistatic")
     band_eversion_threshold: bool = _setting(True, "quasistatic")
     flattening: float = _setting(_MODEL.get("flattening", 0.0), "quasistatic")
+    joint_softening: float = _setting(_MODEL.get("joint_softening", 0.0), "quasistatic")
     axial_load: bool = _setting(_MODEL.get("axial_load", False), "quasistatic")
     band_hinge_relief: float = _setting(_MODEL.get("band_hinge_relief", 0.0), "quasistatic")
     band_hinge_reach_m: float = _setting(_MODEL.get("band_hinge_reach_m", 0.15), "quasistatic")
@@ -238,6 +240,7 @@ class SimConfig:
                              f"{' or '.join(repr(e) for e in LINEAR_SOLVERS)}")
         _check("fold_pinch_per_rad", self.fold_pinch_per_rad, 0.0, 10.0)
         _check("flattening", self.flattening, 0.0, 0.5, lo_open=False)
+        _check("joint_softening", self.joint_softening, 0.0, 0.9, lo_open=False)
         _check("band_hinge_relief", self.band_hinge_relief, 0.0, 0.9, lo_open=False)
         _check("band_hinge_reach_m", self.band_hinge_reach_m, 0.005, 1.0, lo_open=False)
         _check("stiffness_factor", self.stiffness_factor, 0.5, 2.0, lo_open=False)

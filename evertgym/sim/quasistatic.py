@@ -116,21 +116,43 @@ _FREE_GAPS = 2.0
 _FREE_SEGMENTS = 4
 
 
-def _law_table(n: int = 6000, x_max: float = 1e4) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+def _law_table(softening: float = 0.0, n: int = 6000, x_max: float = 1e4) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """The joint law past wrinkling in normalised form, ``h(x) = M / M_c`` at ``x = phi / phi_w``
     (the tension-field law, never below the residual stiffness ``0.005 x``), on a uniform grid of
-    ``ln x``, with its integral ``H(x) = int_1^x h``; and the slope used beyond ``x_max``."""
+    ``ln x``, with its integral ``H(x) = int_1^x h``; and the slope used beyond ``x_max``.  With
+    ``softening`` (candidate (b) of docs/bands.md) the moment falls past its peak (Brazier's ovalisation
+    of a bent pressurised tube; Pastrana et al. 2024): from :data:`SOFTENING_ONSET` of ``M_c`` it drops
+    by the fraction ``softening`` over :data:`SOFTENING_SPAN` times the onset's curvature."""
     u = np.linspace(0.0, math.log(x_max), n)
     x = np.exp(u)
     floor = 0.5 * RESIDUAL_STIFFNESS_FRACTION
-    h = np.maximum(np.asarray(wrinkled_moment_fraction(x), float), floor * x)
+    h = np.asarray(wrinkled_moment_fraction(x), float)
+    if softening > 0:
+        onset = float(x[np.argmax(h >= SOFTENING_ONSET)])
+        t = np.clip(np.log(np.maximum(x, onset) / onset) / math.log(SOFTENING_SPAN), 0.0, 1.0)
+        h = np.where(x > onset, SOFTENING_ONSET, h) * (1.0 - softening * t * t * (3.0 - 2.0 * t))
+    h = np.maximum(h, floor * x)
     hi = np.concatenate(([0.0], np.cumsum(0.5 * (h[1:] + h[:-1]) * np.diff(x))))
     slope = max(1.0 / _END_SLOPE, floor)
     return u, h, hi, slope
 
 
-_LAW = _law_table()
-_LAW_TABLE = qk.LawTable(*_LAW, RESIDUAL_STIFFNESS_FRACTION)  # (the kernel's bundle of it)
+#: Candidate (b)'s softening law: the moment's peak, as a fraction of the collapse moment ``M_c`` (the
+#: tension-field law reaches it at 3.5 times the wrinkling curvature) ...
+SOFTENING_ONSET = 0.8
+#: ... and the span of curvature (a factor on the peak's) over which it falls by ``joint_softening``.
+SOFTENING_SPAN = 4.0
+
+
+def law_table(softening: float) -> qk.LawTable:
+    """The kernel's bundle of :func:`_law_table` (cached per ``softening``)."""
+    if softening not in _LAW_TABLES:
+        _LAW_TABLES[softening] = qk.LawTable(*_law_table(softening), RESIDUAL_STIFFNESS_FRACTION)
+    return _LAW_TABLES[softening]
+
+
+_LAW_TABLES: dict[float, qk.LawTable] = {}
+_LAW_TABLE = law_table(0.0)  # (the default law: no softening)
 
 
 @dataclass
@@ -319,6 +341,7 @@ class QuasiStaticSim(EversionSim):
         # barrier stiffness: 0.1 x the largest drive (8 kPa pi r^2) per barrier gap (N/m)
         self._kappa = qk.barrier_stiffness(design.radius_m, cfg.barrier_gap_m)
         self._flat = np.zeros(len(self.nodes))  # per joint: the cross-section's flattening f (band_laws.flattening)
+        self._joint_law = law_table(self.cfg.joint_softening)  # the joints' law (candidate (b): softening past the peak)
         self._tip_mu = cfg.tip_friction  # the tip's friction coefficient now (band_hinge_relief lowers it)
         # per band: the joints inside its strip and its centre (m), for the band-hinge law
         self._band_joints = [np.nonzero(np.abs(self.nodes - b.position_m) <= 0.5 * b.width_m + 0.5 * self.ds)[0]
@@ -402,7 +425,7 @@ class QuasiStaticSim(EversionSim):
     def joint_moments(self, start: int = 0) -> np.ndarray:
         """Joint moments (N m) of joints ``start..`` from the law at the current angles."""
         n = len(self.phi)
-        return qk.joint_moments(self.phi[start:], qk.Joints(self._k_all[start:n], self._mw_all[start:n]), _LAW_TABLE)
+        return qk.joint_moments(self.phi[start:], qk.Joints(self._k_all[start:n], self._mw_all[start:n]), self._joint_law)
 
     def collapse_moments(self, start: int = 0) -> np.ndarray:
         return 2.0 * self._mw_all[start : len(self.phi)]
@@ -869,7 +892,7 @@ class QuasiStaticSim(EversionSim):
         self._contact_update(mag, (len(self.seg_len) - 1) in self._contact_segs)
         self._band_events()
         n = len(self.phi)
-        moments, kinked = qk.kinked_joints(self.phi, qk.Joints(self._k_all[:n], self._mw_all[:n]), _LAW_TABLE, KINK_MOMENT_FRACTION)
+        moments, kinked = qk.kinked_joints(self.phi, qk.Joints(self._k_all[:n], self._mw_all[:n]), self._joint_law, KINK_MOMENT_FRACTION)
         self._moments = moments
         self._kink_events(kinked, moments, 2.0 * self._mw_all[:n])
         self._update_tip_mu(moments)
@@ -937,7 +960,7 @@ class QuasiStaticSim(EversionSim):
         sf = np.cumsum(self._seg_force[::-1], axis=0)[::-1]
         sm = np.cumsum(self._seg_moment[::-1])[::-1]
         ext = sm[:a] - (nodes[:a, 0] * sf[:a, 1] - nodes[:a, 1] * sf[:a, 0])
-        own = qk.joint_moments(self.phi[:a], qk.Joints(self._k_all[:a], self._mw_all[:a]), _LAW_TABLE)
+        own = qk.joint_moments(self.phi[:a], qk.Joints(self._k_all[:a], self._mw_all[:a]), self._joint_law)
         bad = np.nonzero(np.abs(own - ext) > tol_m)[0]
         return int(bad[0]) if len(bad) else None
 
@@ -981,7 +1004,7 @@ class QuasiStaticSim(EversionSim):
         if win.overlap:  # (the features an overlap can involve are all within the margin)
             return False
         phi, u, pieces = win.phi, win.u, win.pieces
-        problem = qk.Problem(win.chain, win.joints, _LAW_TABLE, win.walls, win.piece_data,
+        problem = qk.Problem(win.chain, win.joints, self._joint_law, win.walls, win.piece_data,
                              qk.ContactLaw(cfg.barrier_gap_m, self._kappa, self._friction_slip()))
         phi_ref = phi.copy()
         iters = 0
