@@ -100,6 +100,8 @@ def test_the_laws_are_off_by_default_and_leave_the_engine_unchanged():
     (dict(engine="dynamic", flattening=0.2), "flattening = 0.2 means nothing to engine 'dynamic'"),
     (dict(band_fold="yes"), "band_fold = 'yes' is out of range: allowed true or false"),
     (dict(engine="dynamic", band_eversion_threshold=False), "band_eversion_threshold = False means nothing to engine 'dynamic'"),
+    (dict(joint_softening=0.95), "joint_softening = 0.95 is out of range: allowed [0, 0.9]"),
+    (dict(joint_softening=-0.1), "joint_softening = -0.1 is out of range"),
 ])
 def test_bad_law_settings_are_one_line(kwargs, message):
     with pytest.raises(ValueError, match=re.escape(message)) as err:
@@ -134,3 +136,43 @@ def test_reproduce_ubend_names_its_physics_in_the_table_and_the_json(capsys, tmp
     assert '"band_fold": true' in out["physics"] and out["rows"][0]["successes"] == 0  # a 30% band folds under a 40 mm bend's push
     assert main(argv) == 0
     assert "physics: quasi-static engine" in capsys.readouterr().out
+
+
+# ---- candidate (b): the joint law softening past its peak ------------------------------------------------------
+
+def test_the_softening_law_peaks_at_its_onset_falls_by_its_drop_and_is_off_at_zero():
+    from evertgym.sim.discretize import RESIDUAL_STIFFNESS_FRACTION
+    from evertgym.sim.quasistatic import _LAW_TABLE, SOFTENING_ONSET, SOFTENING_SPAN, _law_table, law_table
+
+    u0, h0, hi0, s0 = _law_table(0.0)
+    assert np.array_equal(h0, _LAW_TABLE.h) and np.array_equal(hi0, _LAW_TABLE.hi)  # no softening: the default law, bit for bit
+    u, h, hi, slope = _law_table(0.3)
+    x = np.exp(u)
+    onset = x[np.argmax(h0 >= SOFTENING_ONSET)]
+    assert h[x < 100].max() == pytest.approx(SOFTENING_ONSET, abs=2e-3)  # the peak: the onset's moment
+    assert np.array_equal(h[x <= onset], h0[x <= onset])  # the rising branch unchanged
+    falling = (x > onset) & (x < onset * SOFTENING_SPAN)
+    assert np.all(np.diff(h[falling]) < 0)  # a negative tangent past the peak
+    after = (x >= onset * SOFTENING_SPAN) & (x < 100)
+    assert h[after] == pytest.approx(SOFTENING_ONSET * 0.7)  # fallen by the drop
+    assert np.all(h >= 0.5 * RESIDUAL_STIFFNESS_FRACTION * x - 1e-12)  # never below the residual stiffness
+    assert hi[-1] == pytest.approx(np.trapezoid(h, x), rel=1e-12)  # the energy is the moment's integral
+    assert law_table(0.3) is law_table(0.3)  # built once per setting
+
+
+def test_a_softening_joint_law_is_solved_to_equilibrium_and_turns_the_body_further_in_a_bend():
+    """The paper robot grown into a 30 mm U-bend at 3 kPa: every solve converges with the softening law, and its
+    joints turn further than without it (the moment falls past the peak, so a hinge takes more of the turn)."""
+    from evertgym.experiments.paper import ubend_specs
+    from evertgym.experiments.trial import make_trial_env
+    turns = {}
+    for drop in (0.0, 0.3):
+        spec = ubend_specs(1, radii=(30.0,), reductions=(0.0,), sim={"engine": "quasistatic", "joint_softening": drop})[0]
+        env = make_trial_env(spec)
+        env.reset(seed=0)
+        sim = env.sim
+        sim.set_pressure_command(3000.0)
+        sim.run(4.5)  # the tip is in the bend
+        assert sim.length > 0.34 and sim.solve_stats["solve_failures"] == 0
+        turns[drop] = float(np.max(np.abs(sim.joint_angles())))
+    assert turns[0.3] > 1.2 * turns[0.0]

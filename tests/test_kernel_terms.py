@@ -17,7 +17,7 @@ from evertgym.sim import kernel as qk
 from evertgym.sim.kernel import potential
 from evertgym.sim.kernel.bundles import Friction, Hessian
 from evertgym.sim.kernel.contacts import rows_to_pairs
-from evertgym.sim.quasistatic import _LAW_TABLE
+from evertgym.sim.quasistatic import _LAW_TABLE, law_table
 
 M = 12
 SEG_M = 0.0075
@@ -219,23 +219,25 @@ def _pairs_within_reach(problem: qk.Problem, phi: np.ndarray, u: np.ndarray) -> 
     return rows_to_pairs(rows)
 
 
-@pytest.mark.parametrize("case", ["linear", "wrinkled", "kinked", "band", "residual"])
+@pytest.mark.parametrize("case", ["linear", "wrinkled", "kinked", "band", "residual", "softening"])
 def test_the_joint_laws_gradient_and_hessian_are_its_finite_differences(case):
-    rng = np.random.default_rng(["linear", "wrinkled", "kinked", "band", "residual"].index(case))
+    rng = np.random.default_rng(["linear", "wrinkled", "kinked", "band", "residual", "softening"].index(case))
     chain, _ = _chain(rng)
     k = rng.uniform(0.02, 0.08, M)
     mw = rng.uniform(2e-3, 6e-3, M) if case != "residual" else np.zeros(M)
     phiw = mw / k
-    ratio = {"linear": (0.1, 0.9), "wrinkled": (1.1, 3.0), "kinked": (5.0, 60.0), "band": (1.2, 20.0), "residual": (0.5, 2.0)}[case]
+    ratio = {"linear": (0.1, 0.9), "wrinkled": (1.1, 3.0), "kinked": (5.0, 60.0), "band": (1.2, 20.0), "residual": (0.5, 2.0),
+             "softening": (3.0, 16.0)}[case]
     if case == "band":  # a band's joints wrinkle at a lower moment
         mw[3:7] *= 0.4
         phiw = mw / k
     phi = rng.choice([-1.0, 1.0], M) * rng.uniform(*ratio, M) * (phiw if case != "residual" else 0.05)
-    problem = qk.Problem(chain, qk.Joints(k, mw), _LAW_TABLE, _no_walls(), _pieces(0), qk.ContactLaw(DHAT_M, KAPPA, EPS_V_M))
+    law = law_table(0.3) if case == "softening" else _LAW_TABLE  # (candidate (b): a negative tangent past the peak)
+    problem = qk.Problem(chain, qk.Joints(k, mw), law, _no_walls(), _pieces(0), qk.ContactLaw(DHAT_M, KAPPA, EPS_V_M))
     # past wrinkling the law is a table in ln(phi / phi_w): its moment interpolates linearly in ln x, its
     # stiffness is the cell's slope in x, the two consistent to the table's resolution (its step in ln x)
     table_step = float(_LAW_TABLE.u[1] - _LAW_TABLE.u[0])
-    wrinkled = case in ("wrinkled", "kinked", "band")
+    wrinkled = case in ("wrinkled", "kinked", "band", "softening")
     _check(State(problem, phi, np.zeros((0, 3)), np.zeros((0, 2), np.int64), _no_friction()),
            rtol_hess=table_step if wrinkled else 1e-5)
 
