@@ -163,11 +163,15 @@ def test_the_table_goes_between_the_pages_markers(tmp_path):
 def test_selection_wants_the_order_constraints_then_the_prediction_likelihood():
     from evertgym.experiments.bend_model import ORDER_FINDINGS, select
 
-    def cand(name, ll, order):
-        return {"candidate": name, "loglik_prediction": ll, "findings": {f: order for f in ORDER_FINDINGS}}
+    def cand(name, ll, order, cal=-10.0):
+        return {"candidate": name, "loglik_prediction": ll, "findings": {f: order for f in ORDER_FINDINGS},
+                "loglik_calibration_bare": cal, "loglik_10_at_30_25": -5.0}
 
     assert select({"candidates": [cand("x", -3.0, False), cand("y", -5.0, True), cand("z", -9.0, True)]})["candidate"] == "y"
     assert select({"candidates": [cand("x", -3.0, False), cand("w", -4.0, False)]})["candidate"] == "x"
+    # a tie on the prediction cells (all at their clip) goes to the better calibration, whatever the order
+    assert select({"candidates": [cand("u", -4.63, True, -13.0), cand("v", -4.63 + 1e-9, True, -6.5)]})["candidate"] == "v"
+    assert select({"candidates": [cand("u", -4.62, True, -13.0), cand("v", -4.63, True, -6.5)]})["candidate"] == "u"
 
 
 @pytest.mark.parametrize("argv, says", [

@@ -71,7 +71,7 @@ class Candidate:
 
 #: the band hinge's two parameters, the grid they are fitted on (10% at 30 and 25 mm): a reach of 0.12 m or a
 #: relief of 0.15 leaves the 10% row at bare's (log-likelihood -61 on a finer grid, docs/bands.md)
-_HINGE_GRID = {"band_hinge_relief": (0.3, 0.4, 0.5, 0.6), "band_hinge_reach_m": (0.25, 0.4)}
+_HINGE_GRID = {"band_hinge_relief": (0.3, 0.35, 0.4, 0.5, 0.6), "band_hinge_reach_m": (0.25, 0.4)}
 
 CANDIDATES = (
     Candidate("a", "hinges and the tip's friction cone, with the variation"),
@@ -386,7 +386,8 @@ ORDER_FINDINGS = ("20% and 30% totals below 10%'s", "30% at most 20%")
 
 def select(study: dict) -> dict:
     """The candidate to adopt: among those meeting the 20%/30% order constraints (all candidates if none
-    does), the best by prediction log-likelihood."""
+    does), the best by prediction log-likelihood; a tie there (to 1e-6: every prediction cell at its clip)
+    goes to the better calibration log-likelihood, the bare rows' plus the 10% cells' at 30 and 25 mm."""
     cands = study["candidates"]
     ordered = [c for c in cands if all(c["findings"][f] for f in ORDER_FINDINGS)] or cands
-    return max(ordered, key=lambda c: c["loglik_prediction"])
+    return max(ordered, key=lambda c: (round(c["loglik_prediction"], 6), c["loglik_calibration_bare"] + c["loglik_10_at_30_25"]))
