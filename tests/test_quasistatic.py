@@ -61,9 +61,11 @@ def test_free_growth_stays_straight_and_follows_the_rate_law():
 def test_the_tip_slides_along_an_oblique_wall(wall_deg):
     """Incidence 45 and 30 degrees from the wall's normal, outside the tip's friction cone
     (0.2: 11 degrees): the tip turns and grows along the wall, every solve converged, and the
-    wall never pushes harder than the tube can (1.5 p pi r^2)."""
+    wall never pushes harder than the tube can (1.5 p pi r^2).  Its heading is the wall's within
+    10 degrees, as the dynamic engine's (tests/test_sim.py): with the default's softening joint law
+    the hinge at the contact leaves the tip segment pointing about 5 degrees into a 45-degree wall."""
     sim, heading = grow_into_inclined_wall(wall_deg, QS)
-    assert sim.length == pytest.approx(0.3) and heading == pytest.approx(wall_deg, abs=5.0)
+    assert sim.length == pytest.approx(0.3) and heading == pytest.approx(wall_deg, abs=10.0)
     assert 0.2 * F_REF_3KPA < sim.max_contact_force <= 1.5 * F_REF_3KPA
     assert sim.solve_stats["solve_failures"] == 0 and sim.solve_stats["solves"] > 0
 
@@ -94,18 +96,20 @@ def test_ubend_trial_converges_and_does_not_move_with_the_increment():
 
 
 def test_the_friction_lag_runs_to_convergence_and_a_lag_cut_short_is_counted():
-    """The bare paper robot through a 30 mm U-bend at 3 kPa for 6 s: with the default every committed solve's
-    normal forces stopped changing (``friction_lag_unconverged`` 0); with one re-solve, as before, most solves
-    ended with them still changing, and each is counted."""
+    """The bare paper robot through a 30 mm U-bend at 3 kPa for 6 s: on the joint law without softening every
+    committed solve's normal forces stopped changing (``friction_lag_unconverged`` 0); with one re-solve, as
+    before, most solves ended with them still changing, and each is counted; with the default's softening law a
+    few cycle between two contact states (a hinge that flips) and are counted."""
     stats = []
-    for lag in (SimConfig().friction_lag_iterations, 1):
+    for kw in ({"joint_softening": 0.0}, {"joint_softening": 0.0, "friction_lag_iterations": 1}, {}):
         scene = make_scene(SceneSpec("ubend", {"radius_mm": 30.0}, 0))
-        sim = EversionSim(TubeDesign(length_m=0.9), scene=scene, config=SimConfig(engine="quasistatic", friction_lag_iterations=lag))
+        sim = EversionSim(TubeDesign(length_m=0.9), scene=scene, config=SimConfig(engine="quasistatic", **kw))
         sim.set_pressure_command(3000.0)
         sim.run(6.0)
         stats.append(sim.solve_stats)
     assert stats[0]["friction_lag_unconverged"] == 0 and stats[0]["solves"] > 100
     assert stats[1]["friction_lag_unconverged"] > 0.5 * stats[1]["solves"]
+    assert stats[2]["friction_lag_unconverged"] < 0.1 * stats[2]["solves"] and stats[2]["solve_failures"] == 0
 
 
 def test_growth_that_no_wall_reaches_is_not_solved_and_changes_nothing(monkeypatch):
