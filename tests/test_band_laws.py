@@ -48,20 +48,26 @@ def test_flattening_starts_at_wrinkling_saturates_at_three_times_it_and_is_deepe
     assert flattening(-phi, k, mw, r, R, 0.2)[4] == pytest.approx(0.3)
 
 
+def _bare_robot_in_the_30mm_bend(sim: dict):
+    """The bare paper robot (trial 0 of the 30 mm U-bend) grown 4.5 s at 3 kPa with the SimConfig overrides ``sim``:
+    its tip is in the bend."""
+    from evertgym.experiments.paper import ubend_specs
+    from evertgym.experiments.trial import make_trial_env
+    spec = ubend_specs(1, radii=(30.0,), reductions=(0.0,), sim={"engine": "quasistatic", **sim})[0]
+    env = make_trial_env(spec)
+    env.reset(seed=0)
+    env.sim.set_pressure_command(3000.0)
+    env.sim.run(4.5)
+    assert env.sim.length > 0.34
+    return env.sim
+
+
 def test_flattening_shrinks_the_collision_radius_of_a_bent_body_and_its_collapse_moment():
     """The paper robot grown into a 30 mm U-bend: with flattening the segments in the bend collide with
     a smaller radius and their joints collapse at a lower moment; without it, neither changes."""
-    from evertgym.experiments.paper import ubend_specs
-    from evertgym.experiments.trial import make_trial_env
     out = {}
     for f_max in (0.0, 0.2):
-        spec = ubend_specs(1, radii=(30.0,), reductions=(0.0,), sim={"engine": "quasistatic", "flattening": f_max})[0]
-        env = make_trial_env(spec)
-        env.reset(seed=0)
-        sim = env.sim
-        sim.set_pressure_command(3000.0)
-        sim.run(4.5)  # the tip is in the bend
-        assert sim.length > 0.34
+        sim = _bare_robot_in_the_30mm_bend({"flattening": f_max})
         out[f_max] = (float(np.min(sim.radii()[:-1])), float(np.min(sim.collapse_moments() / (3000.0 * math.pi * R**3))))
     assert out[0.0][0] == pytest.approx(R, abs=1e-9) and out[0.0][1] == pytest.approx(sim.pressure / 3000.0, rel=0.05)
     assert out[0.2][0] < 0.9 * R and out[0.2][1] < 0.9 * out[0.0][1]
@@ -163,16 +169,9 @@ def test_the_softening_law_peaks_at_its_onset_falls_by_its_drop_and_is_off_at_ze
 def test_a_softening_joint_law_is_solved_to_equilibrium_and_turns_the_body_further_in_a_bend():
     """The paper robot grown into a 30 mm U-bend at 3 kPa: every solve converges with the softening law, and its
     joints turn further than without it (the moment falls past the peak, so a hinge takes more of the turn)."""
-    from evertgym.experiments.paper import ubend_specs
-    from evertgym.experiments.trial import make_trial_env
     turns = {}
     for drop in (0.0, 0.3):
-        spec = ubend_specs(1, radii=(30.0,), reductions=(0.0,), sim={"engine": "quasistatic", "joint_softening": drop})[0]
-        env = make_trial_env(spec)
-        env.reset(seed=0)
-        sim = env.sim
-        sim.set_pressure_command(3000.0)
-        sim.run(4.5)  # the tip is in the bend
-        assert sim.length > 0.34 and sim.solve_stats["solve_failures"] == 0
+        sim = _bare_robot_in_the_30mm_bend({"joint_softening": drop})
+        assert sim.solve_stats["solve_failures"] == 0
         turns[drop] = float(np.max(np.abs(sim.joint_angles())))
     assert turns[0.3] > 1.2 * turns[0.0]
