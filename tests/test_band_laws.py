@@ -127,6 +127,9 @@ def test_the_physics_line_names_the_adopted_model_its_fits_and_the_overrides():
         assert name in default and "fitted on" in default
     for miss in model.get("misses", []):
         assert miss in default
+    for name, v in model["switches"].items():  # a switch's value that nothing fitted is declared as such
+        if not isinstance(v, bool) and name not in model["fitted"]:
+            assert f"{name} {v:g}" in default.split("declared, not fitted: ")[1]
     assert 'overrides on top: {"band_fold": true, "flattening": 0.2}' in physics_note({"band_fold": True, "flattening": 0.2})
     assert physics_note({"engine": "dynamic", "section_law": True}).startswith("physics: dynamic engine (section law)")
 

@@ -344,11 +344,15 @@ def physics_note(sim: dict | None = None) -> str:
                        + f" (fitted on {v['fitted_on']})" for name, v in model["fitted"].items())
     over = {k: v for k, v in (sim or {}).items() if k not in ("engine", "linear_solver")}
     misses = model.get("misses", [])
+    declared = "; ".join(f"{k} {v:g}" for k, v in model["switches"].items()
+                         if not isinstance(v, bool) and k not in model["fitted"])
     return (f"physics: quasi-static engine with bend model ({model['candidate']}) {model['description']}; switches "
             f"{json.dumps(model['switches'], sort_keys=True)}; variation per robot (stiffness, eversion threshold: measured) and "
             f"per trial (friction: lognormal; band position, entry); {fitted or 'nothing fitted'}"
+            + (f"; declared, not fitted: {declared}" if declared else "")
             + (f"; SimConfig overrides on top: {json.dumps(over, sort_keys=True)}" if over else "")
-            + (f". Misses: {', '.join(misses)} (docs/bands.md)." if misses else ". It meets every U-bend and colon finding checked (docs/bands.md)."))
+            + (f". Misses, on expected passes: {', '.join(misses)} (docs/bands.md)." if misses
+               else ". It meets every U-bend and colon finding checked (docs/bands.md)."))
 
 
 def likelihood_table(study: dict) -> str:
