@@ -65,22 +65,34 @@ def run_command(func: Callable[[argparse.Namespace], int], args: argparse.Namesp
         return EXIT_USAGE
 
 
+#: Python code that a C call runs inside it, where a KeyboardInterrupt must not be raised: pymunk's callbacks (cffi
+#: swallows it: "Exception ignored from cffi callback") and numba's unpickling of constants while it boxes a compiled
+#: call's result (CPython then fails the call: "returned a result with an exception set").
+_NOT_HERE = ("pymunk", os.path.join("numba", "core", "serialize.py"))
+
+
+def _inside_c_call(frame) -> bool:
+    """Whether ``frame`` or a caller of it is Python code run inside a C call (:data:`_NOT_HERE`)."""
+    f = frame
+    while f is not None:
+        if any(part in f.f_code.co_filename for part in _NOT_HERE):
+            return True
+        f = f.f_back
+    return False
+
+
 @contextlib.contextmanager
 def _interruptible():
-    """Ctrl-C that reaches Python code: pymunk's C callbacks swallow a KeyboardInterrupt
-    raised inside them ("Exception ignored from cffi callback"), so while one runs the
-    interrupt is redelivered 10 ms later instead."""
+    """Ctrl-C that reaches Python code: while Python code runs inside a C call (a pymunk callback, the
+    boxing of a compiled call's result) the interrupt is redelivered 10 ms later instead."""
     if not hasattr(signal, "setitimer") or threading.current_thread() is not threading.main_thread():
         yield
         return
 
     def handler(signum, frame):
-        f = frame
-        while f is not None:
-            if "pymunk" in f.f_code.co_filename:
-                signal.setitimer(signal.ITIMER_REAL, 0.01)  # retry once the callback has returned
-                return
-            f = f.f_back
+        if _inside_c_call(frame):
+            signal.setitimer(signal.ITIMER_REAL, 0.01)  # retry once the call has returned
+            return
         raise KeyboardInterrupt
 
     old_int, old_alrm = signal.signal(signal.SIGINT, handler), signal.signal(signal.SIGALRM, handler)

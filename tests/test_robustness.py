@@ -425,3 +425,22 @@ def test_rss_stays_flat_over_ten_simulated_minutes_of_20_hz_cycling():
     log = json.loads(done.stdout)["event_log"]
     assert log["events_at_end"] <= log["max_events"]
     assert log["rss_mib_at_end"] - log["rss_mib_at_1_min"] < 8.0  # the unbounded log grew 15.6 MiB in 3 minutes
+
+
+def test_ctrl_c_waits_while_python_code_runs_inside_a_c_call():
+    """The CLI's SIGINT handler redelivers the interrupt 10 ms later while the running Python code is a pymunk
+    callback or numba's unpickling inside the boxing of a compiled call's result (raised there, the call fails
+    with a SystemError instead of a clean KeyboardInterrupt); anywhere else it raises at once."""
+    import types
+
+    import numba.core.serialize
+
+    from evertgym.cli_guard import _inside_c_call
+
+    def frame(filename, back=None):
+        return types.SimpleNamespace(f_code=types.SimpleNamespace(co_filename=filename), f_back=back)
+
+    assert _inside_c_call(frame(numba.core.serialize.__file__, frame(__file__)))
+    assert _inside_c_call(frame(__file__, frame("/x/site-packages/pymunk/space.py")))
+    assert not _inside_c_call(frame(__file__, frame("/x/site-packages/numba/core/dispatcher.py")))
+    assert not _inside_c_call(sys._getframe())
