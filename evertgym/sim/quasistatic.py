@@ -152,7 +152,7 @@ def law_table(softening: float) -> qk.LawTable:
 
 
 _LAW_TABLES: dict[float, qk.LawTable] = {}
-_LAW_TABLE = law_table(0.0)  # (the default law: no softening)
+_LAW_TABLE = law_table(0.0)  # (the law without softening: the kernel's tests use it)
 
 
 @dataclass
