@@ -991,8 +991,7 @@ def build_parser() -> argparse.ArgumentParser:
     bd_sub = bd.add_subparsers(dest="target", required=True)
     bf = _sub(bd_sub, "fit", "fit every candidate bend model on the paper's calibration cells and rank them by the "
                              "binomial log-likelihood of its prediction cells (resumable)")
-    bf.add_argument("--candidates", default=None, help="comma-separated candidate names (default: all: a, b, c, d1, d2, e, e+d2, e+d1, e+d1+d2, "
-                                                               "b+e+d2)")
+    bf.add_argument("--candidates", default=None, help="comma-separated candidate names (default: all of docs/bands.md's)")
     bf.add_argument("--db", default="runs/bands.sqlite", help="result store of every trial (resumable)")
     bf.add_argument("--summary", default="runs/bands_candidates.json", help="per-candidate summaries kept as they finish")
     bf.add_argument("--out", default=None, help="write the likelihood table (markdown) here: between the page's table markers "

@@ -11,7 +11,9 @@ from evertgym.sim.kernel import ccd, newton, potential
 from evertgym.sim.kernel.contacts import pair_rows
 from evertgym.sim.kernel.friction import resolve
 from evertgym.sim.kernel.geometry import pair_at, point_edge
-from evertgym.sim.quasistatic import _LAW_TABLE
+from evertgym.sim.quasistatic import law_table
+
+_LAW_TABLE = law_table(0.0)  # the joint law without softening
 
 SEG_M = 0.0075
 RAD_M = 0.001  # a thin robot ...

@@ -41,6 +41,7 @@ never hidden.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -129,7 +130,7 @@ def _law_table(softening: float = 0.0, n: int = 6000, x_max: float = 1e4) -> tup
     h = np.asarray(wrinkled_moment_fraction(x), float)
     if softening > 0:
         onset = float(x[np.argmax(h >= SOFTENING_ONSET)])
-        t = np.clip(np.log(np.maximum(x, onset) / onset) / math.log(SOFTENING_SPAN), 0.0, 1.0)
+        t = np.clip(np.log(x / onset) / math.log(SOFTENING_SPAN), 0.0, 1.0)
         h = np.where(x > onset, SOFTENING_ONSET, h) * (1.0 - softening * t * t * (3.0 - 2.0 * t))
     h = np.maximum(h, floor * x)
     hi = np.concatenate(([0.0], np.cumsum(0.5 * (h[1:] + h[:-1]) * np.diff(x))))
@@ -144,15 +145,10 @@ SOFTENING_ONSET = 0.8
 SOFTENING_SPAN = 4.0
 
 
+@functools.cache
 def law_table(softening: float) -> qk.LawTable:
-    """The kernel's bundle of :func:`_law_table` (cached per ``softening``)."""
-    if softening not in _LAW_TABLES:
-        _LAW_TABLES[softening] = qk.LawTable(*_law_table(softening), RESIDUAL_STIFFNESS_FRACTION)
-    return _LAW_TABLES[softening]
-
-
-_LAW_TABLES: dict[float, qk.LawTable] = {}
-_LAW_TABLE = law_table(0.0)  # (the law without softening: the kernel's tests use it)
+    """The kernel's bundle of :func:`_law_table` (built once per ``softening``)."""
+    return qk.LawTable(*_law_table(softening), RESIDUAL_STIFFNESS_FRACTION)
 
 
 @dataclass
