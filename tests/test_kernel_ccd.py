@@ -75,7 +75,7 @@ def test_the_first_newton_step_would_pass_through_the_wall_with_every_gap_positi
 def test_a_released_body_with_no_step_cap_rests_on_a_thin_wall_instead_of_passing_through():
     problem, phi = _released()
     settings = qk.SolveSettings(1e-7, 1e-7, 200, NO_STEP_CAP_M, 1, True)
-    out = qk.solve_increment(problem, phi, phi.copy(), np.zeros((0, 3)), np.arange(len(phi) + 1) * SEG_M, np.zeros(len(phi)),
+    out = qk.solve_increment(problem, phi, phi.copy(), np.zeros((0, 3)), np.zeros((0, 3)), np.arange(len(phi) + 1) * SEG_M, np.zeros(len(phi)),
                              np.zeros(1), _no_friction(), settings)
     assert out.status == qk.CONVERGED
     nodes = qk.chain_nodes(0.0, np.zeros(2), phi, problem.chain.seg_len)[0]

@@ -38,7 +38,7 @@ def _swing_back(start_rad: float, semi: bool = False) -> tuple[np.ndarray, np.nd
     problem = qk.Problem(qk.Chain(0.0, n0, seg_len, seg_rad), qk.Joints(np.full(m, 0.05), np.full(m, 10.0)), _LAW_TABLE, WALL,
                          qk.Pieces(z2, np.zeros((0, 3, 3)), z0, z0), qk.ContactLaw(1e-3, qk.barrier_stiffness(0.02, 1e-3), 1e-5))
     no_friction = qk.Entries(z0, np.zeros(0, np.int64), z2, z2, z0)
-    out = qk.solve_increment(problem, phi, phi.copy(), np.zeros((0, 3)), np.arange(m + 1) * SEG_M, np.zeros(m), np.zeros(1),
+    out = qk.solve_increment(problem, phi, phi.copy(), np.zeros((0, 3)), np.zeros((0, 3)), np.arange(m + 1) * SEG_M, np.zeros(m), np.zeros(1),
                              no_friction, qk.SolveSettings(1e-7, 1e-7, 200, 0.002, 1, semi))
     after, _ = qk.chain_nodes(0.0, n0, phi, seg_len)
     return before, after, out

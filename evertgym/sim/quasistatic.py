@@ -336,8 +336,9 @@ class QuasiStaticSim(EversionSim):
         self._tip_clearance = math.inf
         self._free_until = -1.0  # the length (m) up to which the tip grows without a solve (-1: not known)
         self._grown = 0.0  # growth (m) the next solve follows (0: a solve in place), for its friction slip
-        # the last committed solve's change of every joint's rotation (rad) and its growth (m): the predictor
-        self._last_change: tuple[np.ndarray, float] | None = None
+        # the last committed solve's change of every joint's rotation (rad), of every wall piece's displacement
+        # (m, m, rad), and its growth (m): the predictor
+        self._last_change: tuple[np.ndarray, np.ndarray, float] | None = None
         self._rejoin: tuple[int, int] | None = None  # (joint, solves since) of the last widening
         # barrier stiffness: 0.1 x the largest drive (8 kPa pi r^2) per barrier gap (N/m)
         self._kappa = qk.barrier_stiffness(design.radius_m, cfg.barrier_gap_m)
@@ -984,22 +985,22 @@ class QuasiStaticSim(EversionSim):
         self._count_failed(qk.LINE_SEARCH_FAILED, reach_mm=round(1e3 * out, 3))
         return False
 
-    def _predict(self, phi: np.ndarray, a: int) -> bool:
-        """Move ``phi``, the window's joints from ``a``, to the start a growth solve predicts: the last
-        solve's change of each joint times the ratio of this growth to its (at most
-        :data:`_PREDICTOR_MAX_SCALE`; a joint added since has none).  False (nothing moved) for a solve
-        without growth or after one, and in a scene with compliant wall pieces: a prediction of the
-        joints alone pushes the body into them (Colon-v0 took 65% more iterations), and with it left out
-        only where the window has none, the colon's banded stall moved by 3 mm with the tolerance.
-        Friction still resists slip from the configuration before."""
+    def _predict(self, phi: np.ndarray, u: np.ndarray, a: int, pieces: np.ndarray) -> bool:
+        """Move ``phi``, the window's joints from ``a``, and ``u``, its wall pieces' displacements
+        (``pieces`` their indices), to the start a growth solve predicts: the last solve's change of
+        each times the ratio of this growth to its (at most :data:`_PREDICTOR_MAX_SCALE`; a joint added
+        since has none).  False (nothing moved) for a solve without growth or after one.  Friction
+        still resists slip from the configuration before."""
         last = self._last_change
-        if last is None or self._grown <= 0 or last[1] <= 0 or len(self._piece_bodies):
+        if last is None or self._grown <= 0 or last[2] <= 0:
             return False
-        change, grown = last
+        change, change_u, grown = last
+        scale = min(self._grown / grown, _PREDICTOR_MAX_SCALE)
         full = np.zeros(len(self.phi))
         n = min(len(change), len(full))
         full[:n] = change[:n]
-        phi += min(self._grown / grown, _PREDICTOR_MAX_SCALE) * full[a:]
+        phi += scale * full[a:]
+        u += scale * change_u[pieces]
         return True
 
     def _solve_window_at(self, a: int, tol_m: float, tol_f: float, margin: float) -> bool | float:
@@ -1025,8 +1026,8 @@ class QuasiStaticSim(EversionSim):
         phi, u, pieces = win.phi, win.u, win.pieces
         problem = qk.Problem(win.chain, win.joints, self._joint_law, win.walls, win.piece_data,
                              qk.ContactLaw(cfg.barrier_gap_m, self._kappa, self._friction_slip()))
-        phi_ref = phi.copy()
-        predicted = self._predict(phi, a)
+        phi_ref, u_ref = phi.copy(), u.copy()
+        predicted = self._predict(phi, u, a, pieces)
         iters = 0
         # one Newton iteration's work: O(m) with the semiseparable solver, O(m^3) with the dense one
         m = len(phi) + 3 * len(pieces)
@@ -1038,11 +1039,12 @@ class QuasiStaticSim(EversionSim):
             budget = max(1, min(budget, affordable))
             settings = qk.SolveSettings(tol_m, tol_f, budget, _MAX_MOVE_M, cfg.friction_lag_iterations,
                                         cfg.linear_solver == "semiseparable")
-            res = qk.solve_increment(problem, phi, phi_ref, u, win.s_nodes, win.robot_mu, win.wall_mu, win.entries, settings)
+            res = qk.solve_increment(problem, phi, phi_ref, u, u_ref, win.s_nodes, win.robot_mu, win.wall_mu, win.entries, settings)
             if res.status == qk.INFEASIBLE_START and predicted:  # the predicted start overlaps a wall: from the last one
                 predicted = False
                 phi[:] = phi_ref
-                res = qk.solve_increment(problem, phi, phi_ref, u, win.s_nodes, win.robot_mu, win.wall_mu, win.entries, settings)
+                u[:] = u_ref
+                res = qk.solve_increment(problem, phi, phi_ref, u, u_ref, win.s_nodes, win.robot_mu, win.wall_mu, win.entries, settings)
             status, it, res_m, res_f = res.status, res.iterations, res.residual_m, res.residual_f
             iters += it
             self._work_left -= it * per_iteration
@@ -1076,9 +1078,10 @@ class QuasiStaticSim(EversionSim):
             self._stats.failures += 1
             self._event("solve_failed", status=int(status), residual=round(ratio, 6))
         # commit the window
-        change = np.zeros(len(self.phi))
+        change, change_u = np.zeros(len(self.phi)), np.zeros_like(self._u_all)
         change[a:] = phi - phi_ref
-        self._last_change = (change, self._grown)
+        change_u[pieces] = u - u_ref
+        self._last_change = (change, change_u, self._grown)
         self.phi[a:] = phi
         self._turn = None
         # the solved pieces take their equilibrium (at rest if nothing pushes them); the others stay

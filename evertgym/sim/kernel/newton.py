@@ -429,18 +429,18 @@ def segment_forces(problem: Problem, phi: np.ndarray, u: np.ndarray, wide: np.nd
 
 
 @nb.njit(cache=True, nogil=True)
-def solve_increment(problem: Problem, phi: np.ndarray, phi_ref: np.ndarray, u: np.ndarray, s_nodes: np.ndarray, robot_mu: np.ndarray,
-                    wall_mu: np.ndarray, entries: Entries, settings: SolveSettings) -> SolveResult:
+def solve_increment(problem: Problem, phi: np.ndarray, phi_ref: np.ndarray, u: np.ndarray, u_ref: np.ndarray, s_nodes: np.ndarray,
+                    robot_mu: np.ndarray, wall_mu: np.ndarray, entries: Entries, settings: SolveSettings) -> SolveResult:
     """One equilibrium of the window with lagged friction (:func:`solve`) and its wall forces.
-    Friction resists slip from the configuration before the call, ``phi_ref`` (``phi`` may hold a
-    predicted start); ``phi`` and ``u`` are updated in place.  ``robot_mu`` per segment and
+    Friction resists slip from the configuration before the call, ``phi_ref`` and ``u_ref`` (``phi``
+    and ``u`` may hold a predicted start); ``phi`` and ``u`` are updated in place.  ``robot_mu`` per segment and
     ``wall_mu`` per feature: the friction coefficients; ``entries`` the lagged friction at the start.
     The result says whether the normal forces stopped changing (``lag_converged``): a lag cut short
     leaves friction from forces one refresh old, an error of the order of the growth increment."""
     chain = problem.chain
     pc0 = problem.pieces.pc0
     dhat = problem.contact.dhat
-    lag = LagSource(window_nodes(chain, phi_ref), u.copy(), s_nodes, robot_mu, wall_mu)
+    lag = LagSource(window_nodes(chain, phi_ref), u_ref.copy(), s_nodes, robot_mu, wall_mu)
     reach = CANDIDATE_STEPS * settings.max_move + dhat  # candidates for every pair a solve can reach
     wide = contacts(chain, phi, problem.walls, pc0, u, dhat, reach)  # their rows now
     status, iters, res_m, res_f, entries, lag_converged = solve(problem, phi, u, entries, lag, settings, wide)
