@@ -1,6 +1,6 @@
 """Where a compiled solve's time goes, part by part: a Newton iteration's gradient and Hessian, linear solve,
-step caps and line search, and per solve the first friction-lag pass, the candidate listing, the friction
-entries and the wall forces.
+step caps and line search, and per solve the Newton solve with its friction lag, the candidate listing and the
+friction entries.
 
 Captures the first ``--windows`` solves of ``--steps`` random-action steps (seed 0) of ``--env`` on the
 quasi-static default, then times each part on each captured window in a compiled loop of ``--repeats`` calls
@@ -87,7 +87,7 @@ def _drivers():
         return out
 
     @nb.njit
-    def solve_parts(problem, phi, u, fr, rows0, settings, s_nodes, robot_mu, wall_mu, part, k):
+    def solve_parts(problem, phi, u, entries, lag, rows0, settings, part, k):
         dhat = problem.contact.dhat
         reach = 2.0 * settings.max_move + dhat
         out = 0.0
@@ -95,20 +95,21 @@ def _drivers():
         for _ in range(k):
             if part == 0:
                 p, uu = phi.copy(), u.copy()
-                its += solve(problem, p, uu, fr, settings, rows0)[1]
+                its += solve(problem, p, uu, entries, lag, settings, rows0)[1]
             elif part == 1:
                 out += contacts(problem.chain, phi, problem.walls, problem.pieces.pc0, u, dhat, reach).shape[0]
             else:
                 rows = rows_where(rows0, dhat)
-                out += new_entries(rows, s_nodes, problem.chain.seg_len, robot_mu, wall_mu, problem.walls, problem.pieces.pc0, u,
-                                   problem.contact).s.shape[0]
+                out += new_entries(rows, lag.s_nodes, problem.chain.seg_len, lag.robot_mu, lag.wall_mu, problem.walls,
+                                   problem.pieces.pc0, u, problem.contact).s.shape[0]
         return its, out  # (out: so that no call is optimised away)
 
     return newton_parts, solve_parts
 
 
 def measure(caps: list[tuple], repeats: int) -> dict:
-    """Mean microseconds per window of each part (and the mean Newton iterations of the first pass)."""
+    """Mean microseconds per window of each part (and the mean Newton iterations of a solve)."""
+    from evertgym.sim.kernel.bundles import LagSource
     from evertgym.sim.kernel.contacts import contacts, rows_where
     from evertgym.sim.kernel.friction import resolve
     from evertgym.sim.kernel.geometry import piece_reach, window_nodes
@@ -117,13 +118,14 @@ def measure(caps: list[tuple], repeats: int) -> dict:
 
     newton_parts, solve_parts = _drivers()
     names = ("gradient and Hessian", "linear solve", "step caps", "line search", "energy")
-    per = {n: 0.0 for n in names + ("first friction pass", "candidate listing", "friction entries")}
+    per = {n: 0.0 for n in names + ("solve with the lag", "candidate listing", "friction entries")}
     iterations = 0
     timed = 0
-    for problem, phi, phi_ref, u, s_nodes, robot_mu, wall_mu, entries, settings in caps:
+    for problem, phi, phi_ref, u, u_ref, s_nodes, robot_mu, wall_mu, entries, settings in caps:
         chain, dhat = problem.chain, problem.contact.dhat
         rows0 = contacts(chain, phi, problem.walls, problem.pieces.pc0, u, dhat, CANDIDATE_STEPS * settings.max_move + dhat)
-        fr = resolve(entries, window_nodes(chain, phi_ref), s_nodes, chain.seg_len, problem.walls.piece, problem.pieces.pc0, u)
+        lag = LagSource(window_nodes(chain, phi_ref), u_ref, s_nodes, robot_mu, wall_mu)
+        fr = resolve(entries, lag.start_nodes, s_nodes, chain.seg_len, problem.walls.piece, problem.pieces.pc0, u_ref)
         nodes = window_nodes(chain, phi)
         lst = listing_at(rows_where(rows0, dhat + CANDIDATE_STEPS * settings.max_move), nodes, u, dhat)
         rho = piece_reach(problem.walls, u.shape[0])
@@ -145,8 +147,8 @@ def measure(caps: list[tuple], repeats: int) -> dict:
             t0 = time.perf_counter()
             newton_parts(*args, part, repeats)
             per[name] += max(0.0, time.perf_counter() - t0 - base) / repeats
-        for part, name in enumerate(("first friction pass", "candidate listing", "friction entries")):
-            sargs = (problem, phi, u, fr, rows0, settings, s_nodes, robot_mu, wall_mu, part)
+        for part, name in enumerate(("solve with the lag", "candidate listing", "friction entries")):
+            sargs = (problem, phi, u, entries, lag, rows0, settings, part)
             solve_parts(*sargs, 1)
             t0 = time.perf_counter()
             its, _ = solve_parts(*sargs, repeats)
@@ -190,7 +192,7 @@ def main(argv: list[str] | None = None) -> int:
     for name in ("gradient and Hessian", "linear solve", "step caps", "line search", "energy"):
         print(f"  {name:22s} {r['us'][name]:8.1f}" + ("  (one evaluation; the line search makes one or more)" if name == "energy" else ""))
     print("per solve:")
-    print(f"  {'first friction pass':22s} {r['us']['first friction pass']:8.1f}  ({r['iterations']:.1f} Newton iterations)")
+    print(f"  {'solve with the lag':22s} {r['us']['solve with the lag']:8.1f}  ({r['iterations']:.1f} Newton iterations)")
     for name in ("candidate listing", "friction entries"):
         print(f"  {name:22s} {r['us'][name]:8.1f}")
     return 0

@@ -89,10 +89,10 @@ def compare(args: tuple, repeats: int) -> dict:
     from evertgym.sim.kernel.contacts import rows_to_pairs, rows_where
     from evertgym.sim.kernel.friction import resolve
 
-    problem, phi, phi_ref, u, s_nodes, _robot_mu, _wall_mu, entries, settings = args
+    problem, phi, phi_ref, u, u_ref, s_nodes, _robot_mu, _wall_mu, entries, settings = args
     chain, walls, dhat = problem.chain, problem.walls, problem.contact.dhat
     start_nodes, _ = qk.chain_nodes(chain.theta0, chain.n0, phi_ref, chain.seg_len)
-    fr = resolve(entries, start_nodes, s_nodes, chain.seg_len, walls.piece, problem.pieces.pc0, u)
+    fr = resolve(entries, start_nodes, s_nodes, chain.seg_len, walls.piece, problem.pieces.pc0, u_ref)
     rows = qk.contacts(chain, phi, walls, problem.pieces.pc0, u, dhat, 2.0 * settings.max_move + dhat)
     near = rows_to_pairs(rows_where(rows, dhat + newton.NEAR_MARGIN_M))
     nodes, _ = qk.chain_nodes(chain.theta0, chain.n0, phi, chain.seg_len)

@@ -1,7 +1,7 @@
 """Where the quasi-static engine's compiled solve spends its time: solves by their Newton iterations.
 
 Plays ``--steps`` random-action steps (seed 0) of each env on the quasi-static default, timing every call
-of the compiled solve (:func:`evertgym.sim.kernel.newton.solve_increment`, both friction passes included), and
+of the compiled solve (:func:`evertgym.sim.kernel.newton.solve_increment`, its friction lag included), and
 prints the solves grouped by their Newton iterations: how many, their share of the compiled time, and the
 share of the run's wall time spent outside the compiled solve (the engine's and the env's Python).
 

@@ -15,8 +15,8 @@ inertia or damping to tune (``shared/notes/bend-physics.md``, sections 8-9):
   rod-derived stiffness scaled with ``E_eff(p)``, wrinkling at ``p pi r^3 / 2``, the
   tension-field law to the kink plateau), IPC log barriers on every robot-wall capsule gap
   (``barrier_gap_m``), Coulomb friction lagged per increment (the wall's normal force and
-  tangent from the last solution, re-solved until they stop changing, at most ``friction_lag_iterations``
-  times; a lag cut short is counted, ``friction_lag_unconverged``), sliding beyond
+  tangent made again from the contacts at the Newton iterates near equilibrium until they stop changing,
+  at most ``friction_lag_iterations`` times; a lag cut short is counted, ``friction_lag_unconverged``), sliding beyond
   ``friction_slip_fraction`` of the increment's growth in tangential travel; a contact sticks below ``mu N``) and
   the compliant wall's linear springs and travel stop.  The solve stops on a force criterion:
   every unbalanced joint moment below ``solver_tolerance p pi r^3`` and every unbalanced
@@ -460,7 +460,7 @@ class QuasiStaticSim(EversionSim):
         budget), ``solve_budget_cuts`` (solves ended by the step's work budget, :data:`_WORK_PER_S`;
         each is also a failure), ``solves_skipped`` (growth of at most a segment that no wall
         reached, not solved: :meth:`_free_ahead`) and ``friction_lag_unconverged`` (committed solves whose
-        normal forces were still changing after ``friction_lag_iterations`` re-solves)."""
+        normal forces were still changing after ``friction_lag_iterations`` refreshes)."""
         return self._stats.to_dict()
 
     # ---- pressure, growth, clock -----------------------------------------------------
