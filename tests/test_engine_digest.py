@@ -123,4 +123,4 @@ def test_kernel_parts_times_every_part_of_captured_windows():
     assert len(caps) == 200
     r = parts_script.measure(caps, 2)
     assert 0 < r["windows"] <= 200 and r["iterations"] > 0
-    assert all(r["us"][k] > 0 for k in ("gradient and Hessian", "linear solve", "first friction pass", "candidate listing"))
+    assert all(r["us"][k] > 0 for k in ("gradient and Hessian", "linear solve", "solve with the lag", "candidate listing"))
