@@ -96,7 +96,7 @@ def hinged_band_near_tip(moments: np.ndarray, mw: np.ndarray, band_joints: list[
     for joints, c in zip(band_joints, centres_m):
         if c > length_m or length_m - c > reach_m:
             continue
-        js = joints[joints < n]
-        if len(js) and bool(np.any(np.abs(moments[js]) >= mw[js] * (1.0 - 1e-9))):
-            return True
+        for j in joints.tolist():  # (a band's strip is a few joints: a loop, not numpy's per-call overhead)
+            if j < n and abs(moments[j]) >= mw[j] * (1.0 - 1e-9):
+                return True
     return False

@@ -996,10 +996,9 @@ class QuasiStaticSim(EversionSim):
             return False
         change, change_u, grown = last
         scale = min(self._grown / grown, _PREDICTOR_MAX_SCALE)
-        full = np.zeros(len(self.phi))
-        n = min(len(change), len(full))
-        full[:n] = change[:n]
-        phi += scale * full[a:]
+        n = min(len(change), len(self.phi))
+        if n > a:
+            phi[:n - a] += scale * change[a:n]
         u += scale * change_u[pieces]
         return True
 
