@@ -1057,8 +1057,7 @@ class QuasiStaticSim(EversionSim):
             # the increment cannot be shortened: the same solve again, from the same start, with a larger budget
             self._stats.escalated += 1
             phi[:] = phi_ref
-            if len(pieces):
-                u[:] = self._u_all[pieces]  # (committed only after the solve)
+            u[:] = u_ref
         self._stats.newton_iterations += iters
         if status == qk.INFEASIBLE_START:
             return False

@@ -121,19 +121,27 @@ def pair_rows(chain: Chain, phi: np.ndarray, walls: Walls, pc0: np.ndarray, u: n
         _, _, _, _, s, px, py, qx, qy, dist, gap = pair_at(nodes, k, w, seg_rad, wa, wb, wpiece, wvertex, wradius, pose)
         if gap >= dhat + margin:
             continue
-        out[cnt, 0] = k
-        out[cnt, 1] = w
-        out[cnt, 2] = s
-        out[cnt, 3] = 0.0
-        out[cnt, 4] = px
-        out[cnt, 5] = py
-        out[cnt, 6] = qx
-        out[cnt, 7] = qy
-        out[cnt, 8] = (px - qx) / dist if dist > 0 else 0.0
-        out[cnt, 9] = (py - qy) / dist if dist > 0 else 0.0
-        out[cnt, 10] = gap
+        put_row(out, cnt, k, w, s, px, py, qx, qy, dist, gap)
         cnt += 1
     return out[:cnt]
+
+
+@nb.njit(cache=True, nogil=True)
+def put_row(out: np.ndarray, i: int, k: int, w: int, s: float, px: float, py: float, qx: float, qy: float, dist: float,
+            gap: float) -> None:
+    """Row ``i`` of ``out``: pair ``(k, w)`` with :func:`~evertgym.sim.kernel.geometry.pair_at`'s parameter, robot
+    and wall points, distance and gap (its unit normal from the wall to the robot in columns 8 and 9)."""
+    out[i, 0] = k
+    out[i, 1] = w
+    out[i, 2] = s
+    out[i, 3] = 0.0
+    out[i, 4] = px
+    out[i, 5] = py
+    out[i, 6] = qx
+    out[i, 7] = qy
+    out[i, 8] = (px - qx) / dist if dist > 0 else 0.0
+    out[i, 9] = (py - qy) / dist if dist > 0 else 0.0
+    out[i, 10] = gap
 
 
 @nb.njit(cache=True, nogil=True)

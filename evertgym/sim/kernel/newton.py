@@ -20,7 +20,7 @@ import numpy as np
 
 from evertgym.sim.kernel.bundles import Entries, Friction, Hessian, LagSource, Problem, SolveResult, SolveSettings
 from evertgym.sim.kernel.ccd import CCD_BACKOFF, step_bound
-from evertgym.sim.kernel.contacts import ROW_COLUMNS, contacts, near_pairs, pair_rows, rows_to_pairs, rows_where
+from evertgym.sim.kernel.contacts import ROW_COLUMNS, contacts, near_pairs, pair_rows, put_row, rows_to_pairs, rows_where
 from evertgym.sim.kernel.friction import new_entries, resolve, same_entries
 from evertgym.sim.kernel.geometry import moved, piece_reach, poses, window_nodes
 from evertgym.sim.kernel.linear import dense_diag_max, schur_solve, semi_diag_max, semi_schur_solve
@@ -76,7 +76,7 @@ LAG_REFRESH_FACTOR = 1000.0
 LAG_EARLY_REFRESHES = 10
 #: The wall-force rows a solve reports are those of its candidates, listed again from every wall if
 #: anything has moved by more than this fraction of their reach.
-LAG_RELIST_FRACTION = 0.5
+WIDE_RELIST_FRACTION = 0.5
 
 
 class Listing(NamedTuple):
@@ -266,19 +266,9 @@ def lag_rows(lst: Listing, dhat: float) -> np.ndarray:
     rows = np.empty((near.shape[0], ROW_COLUMNS))
     cnt = 0
     for c in range(near.shape[0]):
-        if geo[c, 10] >= dhat:
-            continue
-        dist = geo[c, 9]
-        rows[cnt, 0] = near[c, 0]
-        rows[cnt, 1] = near[c, 1]
-        rows[cnt, 2] = geo[c, 4]
-        rows[cnt, 3] = 0.0
-        for i in range(4):
-            rows[cnt, 4 + i] = geo[c, 5 + i]
-        rows[cnt, 8] = (geo[c, 5] - geo[c, 7]) / dist if dist > 0 else 0.0
-        rows[cnt, 9] = (geo[c, 6] - geo[c, 8]) / dist if dist > 0 else 0.0
-        rows[cnt, 10] = geo[c, 10]
-        cnt += 1
+        if geo[c, 10] < dhat:
+            put_row(rows, cnt, near[c, 0], near[c, 1], geo[c, 4], geo[c, 5], geo[c, 6], geo[c, 7], geo[c, 8], geo[c, 9], geo[c, 10])
+            cnt += 1
     return rows[:cnt]
 
 
@@ -444,7 +434,7 @@ def solve_increment(problem: Problem, phi: np.ndarray, phi_ref: np.ndarray, u: n
     reach = CANDIDATE_STEPS * settings.max_move + dhat  # candidates for every pair a solve can reach
     wide = contacts(chain, phi, problem.walls, pc0, u, dhat, reach)  # their rows now
     status, iters, res_m, res_f, entries, lag_converged = solve(problem, phi, u, entries, lag, settings, wide)
-    if drift(window_nodes(chain, phi), lag.start_nodes, u, lag.u0) > LAG_RELIST_FRACTION * reach:
+    if drift(window_nodes(chain, phi), lag.start_nodes, u, lag.u0) > WIDE_RELIST_FRACTION * reach:
         wide = contacts(chain, phi, problem.walls, pc0, u, dhat, reach)
     wide = pair_rows(chain, phi, problem.walls, pc0, u, rows_to_pairs(wide), dhat, WIDE_REACH_M)
     acc_f, acc_m, tip = segment_forces(problem, phi, u, wide, _resolved(problem, entries, lag))
