@@ -49,7 +49,6 @@ from typing import NamedTuple
 import numpy as np
 import pymunk
 
-from evertgym._blas import one_blas_thread
 from evertgym.model.pressure import _END_SLOPE, KINK_MOMENT_FRACTION, wrinkled_moment_fraction
 from evertgym.scenes.scene import Scene
 from evertgym.sim import kernel as qk
@@ -353,8 +352,7 @@ class QuasiStaticSim(EversionSim):
         self._moments = np.zeros(0)  # the joints' moments (N m) last published
         self._seg_r0: dict[int, float] = {}  # per full segment: its radius unflattened (m)
         self._apply_pressure(0.0)
-        with one_blas_thread():
-            self._solve()
+        self._solve()
         self._publish()
         self._show_pieces()
 
@@ -553,11 +551,10 @@ class QuasiStaticSim(EversionSim):
         A Ctrl-C (SIGINT) whose handler runs inside a compiled solve (numba calls back into Python to
         build the exceptions it raises and catches) surfaces, when the solve returns, as a chain of
         ``SystemError`` caused by the ``KeyboardInterrupt``: it is raised here as the interrupt it is,
-        so that a resumable command stops and says how to resume.  The solves run with one BLAS
-        thread (:mod:`evertgym._blas`): the answers do not depend on the cores."""
+        so that a resumable command stops and says how to resume.  The compiled kernel calls no BLAS
+        (:mod:`evertgym.sim.kernel.linear`): the answers do not depend on the cores."""
         try:
-            with one_blas_thread():
-                self._step(n_steps)
+            self._step(n_steps)
         except SystemError as e:
             cause: BaseException | None = e
             while cause is not None and not isinstance(cause, KeyboardInterrupt):

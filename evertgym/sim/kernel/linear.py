@@ -29,11 +29,68 @@ SHIFT_GROWTH = 10.0
 
 @nb.njit(cache=True, nogil=True)
 def try_cholesky(a: np.ndarray) -> tuple[np.ndarray, bool]:
-    """The Cholesky factor of ``a`` and True, or ``a`` and False if it is not positive definite."""
-    try:
-        return np.linalg.cholesky(a), True
-    except Exception:  # not positive definite
-        return a, False
+    """The lower Cholesky factor of ``a`` (read from its lower triangle) and True, or ``a`` and False
+    if it is not positive definite.  Plain loops, as every product in this module: the kernel calls
+    no BLAS nor LAPACK, so it loads no BLAS library (17 MB of a process) and its bits do not depend
+    on a library's threads or blocking."""
+    n = a.shape[0]
+    low = np.zeros((n, n))
+    for j in range(n):
+        d = a[j, j]
+        for k in range(j):
+            d -= low[j, k] * low[j, k]
+        if not d > 0.0:  # (a NaN too)
+            return a, False
+        ljj = math.sqrt(d)
+        low[j, j] = ljj
+        for i in range(j + 1, n):
+            s = a[i, j]
+            for k in range(j):
+                s -= low[i, k] * low[j, k]
+            low[i, j] = s / ljj
+    return low, True
+
+
+@nb.njit(cache=True, nogil=True)
+def sub_at_b(c: np.ndarray, a: np.ndarray, b: np.ndarray) -> None:
+    """``c -= a^T b`` in place (``a``: (m, p), ``b``: (m, q), ``c``: (p, q))."""
+    for i in range(a.shape[1]):
+        for j in range(b.shape[1]):
+            s = 0.0
+            for k in range(a.shape[0]):
+                s += a[k, i] * b[k, j]
+            c[i, j] -= s
+
+
+@nb.njit(cache=True, nogil=True)
+def sub_at_v(c: np.ndarray, a: np.ndarray, v: np.ndarray) -> None:
+    """``c -= a^T v`` in place (``a``: (m, p), ``v``: (m,))."""
+    for i in range(a.shape[1]):
+        s = 0.0
+        for k in range(a.shape[0]):
+            s += a[k, i] * v[k]
+        c[i] -= s
+
+
+@nb.njit(cache=True, nogil=True)
+def sub_a_v(c: np.ndarray, a: np.ndarray, v: np.ndarray) -> None:
+    """``c -= a v`` in place (``a``: (m, p), ``v``: (p,))."""
+    for i in range(a.shape[0]):
+        s = 0.0
+        for k in range(a.shape[1]):
+            s += a[i, k] * v[k]
+        c[i] -= s
+
+
+@nb.njit(cache=True, nogil=True)
+def sub_a_bt(c: np.ndarray, a: np.ndarray, b: np.ndarray) -> None:
+    """``c -= a b^T`` in place (``a``, ``b``: (m, p), ``c``: (m, m))."""
+    for i in range(a.shape[0]):
+        for j in range(b.shape[0]):
+            s = 0.0
+            for k in range(a.shape[1]):
+                s += a[i, k] * b[j, k]
+            c[i, j] -= s
 
 
 @nb.njit(cache=True, nogil=True)
@@ -347,15 +404,15 @@ def solve_kept(gen2: np.ndarray, q: np.ndarray, low: np.ndarray, z: np.ndarray, 
                 t[3 * c + i, 3 * c + j] = hpp[p, i, j]
             t[3 * c + i, 3 * c + i] += mu
             rb[3 * c + i] = rhs[m + 3 * p + i]
-    t -= bm.T @ y
-    rb -= bm.T @ z
+    sub_at_b(t, bm, y)
+    sub_at_v(rb, bm, z)
     for i in range(3 * nb_):  # symmetric to rounding: its lower half
         for j in range(i + 1, 3 * nb_):
             t[i, j] = t[j, i]
     lt, spd = try_cholesky(t)
     if spd:
         xb = substitute(lt, rb)
-        z -= y @ xb
+        sub_a_v(z, y, xb)
     return xb, spd
 
 
@@ -524,7 +581,6 @@ def schur_solve(hess: np.ndarray, hjp: np.ndarray, hpp: np.ndarray, rhs: np.ndar
                 for j in range(3):
                     b[i, 3 * c + j] = hjp[i, 3 * p + j]
             c += 1
-    bt = np.ascontiguousarray(b.T)
     mu = mu0
     d = np.empty((3, 3))
     bd = np.empty((m, 3 * nc))
@@ -539,8 +595,11 @@ def schur_solve(hess: np.ndarray, hjp: np.ndarray, hpp: np.ndarray, rhs: np.ndar
                     rc[3 * c + j] = rhs[m + 3 * p + j]
                     for i in range(m):
                         bd[i, 3 * c + j] = b[i, 3 * c] * dinv[p, 0, j] + b[i, 3 * c + 1] * dinv[p, 1, j] + b[i, 3 * c + 2] * dinv[p, 2, j]
-            schur = hess - bd @ bt if nc else hess.copy()
-            r = rhs[:m] - bd @ rc if nc else rhs[:m].copy()
+            schur = hess.copy()
+            r = rhs[:m].copy()
+            if nc:
+                sub_a_bt(schur, bd, b)
+                sub_a_v(r, bd, rc)
             for i in range(m):
                 schur[i, i] += mu
             low, spd = try_cholesky(schur)  # else a larger shift for every factor
@@ -548,14 +607,15 @@ def schur_solve(hess: np.ndarray, hjp: np.ndarray, hpp: np.ndarray, rhs: np.ndar
                 xs = substitute(low, r)
                 x = np.empty(n)
                 x[:m] = xs
-                btx = bt @ xs if nc else np.zeros(0)
+                neg_btx = np.zeros(3 * nc)
+                sub_at_v(neg_btx, b, xs)  # -B^T x_joints
                 c = 0
                 for p in range(npc):  # x_p = D_p^-1 (rhs_p - B_p^T x_joints)
                     o = m + 3 * p
                     v = rhs[o:o + 3].copy()
                     if coupled[p]:
                         for i in range(3):
-                            v[i] -= btx[3 * c + i]
+                            v[i] += neg_btx[3 * c + i]
                         c += 1
                     for i in range(3):
                         x[o + i] = dinv[p, i, 0] * v[0] + dinv[p, i, 1] * v[1] + dinv[p, i, 2] * v[2]
