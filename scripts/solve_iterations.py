@@ -2,8 +2,9 @@
 
 Plays ``--steps`` random-action steps (seed 0) of each env on the quasi-static default, timing every call
 of the compiled solve (:func:`evertgym.sim.kernel.newton.solve_increment`, its friction lag included), and
-prints the solves grouped by their Newton iterations: how many, their share of the compiled time, and the
-share of the run's wall time spent outside the compiled solve (the engine's and the env's Python).
+prints the solves grouped by their Newton iterations: how many, their share of the iterations and of the
+compiled time, their friction-lag refreshes per solve, and the share of the run's wall time spent outside
+the compiled solve (the engine's and the env's Python).
 
     python scripts/solve_iterations.py                          # UBend-v0 300 steps, Colon-v0 150
     python scripts/solve_iterations.py --env evertgym/Tortuous-v0 --steps 200
@@ -35,12 +36,14 @@ def measure(env_id: str, steps: int, sim: dict | None = None) -> dict:
     iters: list[int] = []
     times: list[float] = []
     windows: list[int] = []
+    refreshes: list[int] = []
 
     def timed(*args):
         t0 = time.perf_counter()
         out = inner(*args)
         times.append(time.perf_counter() - t0)
-        iters.append(int(out[1]))
+        iters.append(int(out.iterations))
+        refreshes.append(int(out.refreshes))
         windows.append(len(args[1]))  # phi
         return out
 
@@ -56,14 +59,17 @@ def measure(env_id: str, steps: int, sim: dict | None = None) -> dict:
     finally:
         qs.qk.solve_increment = inner
     env.close()
-    it, t = np.array(iters), np.array(times)
+    it, t, rf = np.array(iters), np.array(times), np.array(refreshes)
     rows = []
     for lo, hi in _BUCKETS:
         s = (it >= lo) & (it < hi)
         rows.append({"iterations": f"{lo}" if hi == lo + 1 else (f"{lo}+" if hi > 10**6 else f"{lo}-{hi - 1}"),
-                     "solves": int(s.sum()), "time_share": float(t[s].sum() / t.sum()) if t.sum() else 0.0})
+                     "solves": int(s.sum()), "time_share": float(t[s].sum() / t.sum()) if t.sum() else 0.0,
+                     "iteration_share": float(it[s].sum() / it.sum()) if it.sum() else 0.0,
+                     "refreshes_per_solve": float(rf[s].mean()) if s.any() else 0.0})
     return {"env_id": env_id, "steps": steps, "steps_per_s": steps / wall, "solves": len(it),
-            "iterations_per_solve": float(it.mean()) if len(it) else 0.0, "joints_per_solve": float(np.mean(windows)) if windows else 0.0,
+            "iterations_per_solve": float(it.mean()) if len(it) else 0.0,
+            "refreshes_per_solve": float(rf.mean()) if len(rf) else 0.0, "joints_per_solve": float(np.mean(windows)) if windows else 0.0,
             "compiled_share": float(t.sum() / wall), "buckets": rows}
 
 
@@ -97,11 +103,12 @@ def main(argv: list[str] | None = None) -> int:
         steps = args.steps or (300 if "UBend" in env_id else 150)
         r = measure(env_id, steps, sim)
         print(f"{env_id}: {steps} steps, {r['steps_per_s']:.0f} steps/s, {r['solves']} solves, {r['iterations_per_solve']:.2f} Newton "
-              f"iterations per solve, {r['joints_per_solve']:.1f} joints per window; the compiled solve is "
-              f"{100 * r['compiled_share']:.0f}% of the wall time")
-        print("  iterations   solves   share of the compiled time")
+              f"iterations and {r['refreshes_per_solve']:.2f} friction-lag refreshes per solve, {r['joints_per_solve']:.1f} joints per "
+              f"window; the compiled solve is {100 * r['compiled_share']:.0f}% of the wall time")
+        print("  iterations   solves   share of the iterations   of the compiled time   lag refreshes per solve")
         for b in r["buckets"]:
-            print(f"  {b['iterations']:>10s} {b['solves']:8d}   {100 * b['time_share']:5.1f}%")
+            print(f"  {b['iterations']:>10s} {b['solves']:8d}   {100 * b['iteration_share']:22.1f}%   {100 * b['time_share']:19.1f}%"
+                  f"   {b['refreshes_per_solve']:23.1f}")
     return 0
 
 

@@ -62,6 +62,9 @@ def test_solves_are_grouped_by_their_iterations():
     assert dense["solves"] == r["solves"]  # the same trajectory for 20 steps (the solvers agree to rounding)
     assert abs(sum(b["time_share"] for b in r["buckets"]) - 1.0) < 1e-9
     assert 0.0 < r["compiled_share"] < 1.0
+    walls = iterations_script.measure("evertgym/UBend-v0", 60)  # (by then the tip is at the walls: solves iterate)
+    assert abs(sum(b["iteration_share"] for b in walls["buckets"]) - 1.0) < 1e-9
+    assert 1.0 < walls["refreshes_per_solve"] < walls["iterations_per_solve"]  # a lag refresh is followed by an iteration
 
 
 def _store(path, results: dict[int, dict], group: str = "g") -> None:

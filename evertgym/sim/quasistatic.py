@@ -218,13 +218,14 @@ class SolveStats:
     budget_cuts: int = 0
     skipped: int = 0
     lag_unconverged: int = 0
+    lag_refreshes: int = 0
 
     def to_dict(self) -> dict:
         return {"solves": self.solves, "solve_failures": self.failures, "newton_iterations": self.newton_iterations,
                 "max_residual_ratio": self.max_residual_ratio, "rejoined_joints": self.rejoined,
                 "solve_retries": self.retried, "solve_escalations": self.escalated, "solve_reselections": self.reselected,
                 "solve_budget_cuts": self.budget_cuts, "solves_skipped": self.skipped,
-                "friction_lag_unconverged": self.lag_unconverged}
+                "friction_lag_unconverged": self.lag_unconverged, "friction_lag_refreshes": self.lag_refreshes}
 
 
 class _Snapshot(NamedTuple):
@@ -349,6 +350,7 @@ class QuasiStaticSim(EversionSim):
                              for b in design.bands]
         self._band_centres = np.array([b.position_m for b in design.bands], float)
         self._band_ends = [b.position_m + 0.5 * b.width_m for b in design.bands]  # (m) where each band is wholly everted
+        self._band_first_joints = [int((b.position_m - 0.5 * b.width_m) / self.ds) for b in design.bands]  # each band's first joint
         self._moments = np.zeros(0)  # the joints' moments (N m) last published
         self._seg_r0: dict[int, float] = {}  # per full segment: its radius unflattened (m)
         self._apply_pressure(0.0)
@@ -457,8 +459,10 @@ class QuasiStaticSim(EversionSim):
         change, and were run again from their start with :data:`_ESCALATION` times the Newton
         budget), ``solve_budget_cuts`` (solves ended by the step's work budget, :data:`_WORK_PER_S`;
         each is also a failure), ``solves_skipped`` (growth of at most a segment that no wall
-        reached, not solved: :meth:`_free_ahead`) and ``friction_lag_unconverged`` (committed solves whose
-        normal forces were still changing after ``friction_lag_iterations`` refreshes)."""
+        reached, not solved: :meth:`_free_ahead`), ``friction_lag_unconverged`` (committed solves whose
+        normal forces were still changing after ``friction_lag_iterations`` refreshes) and
+        ``friction_lag_refreshes`` (how many times the solves made the lagged normal forces and tangents
+        again)."""
         return self._stats.to_dict()
 
     # ---- pressure, growth, clock -----------------------------------------------------
@@ -502,8 +506,8 @@ class QuasiStaticSim(EversionSim):
             return []
         self._turning()
         if self._band_turn is None:
-            self._band_turn = [float(np.sum(np.abs(self.phi[:int((b.position_m - 0.5 * b.width_m) / self.ds)])))
-                               for b in self.design.bands]
+            turns = np.abs(self.phi)
+            self._band_turn = [float(np.add.reduce(turns[:k])) for k in self._band_first_joints]  # (np.sum's reduction)
         tail_base = self._bare_threshold[0] * self._bare_threshold[1]
         mu_b = self.cfg.bend_loss_per_rad
         return [(self.design.radius_m * (1.0 - b.reduction), tail_base * math.exp(mu_b * turn))
@@ -1024,7 +1028,7 @@ class QuasiStaticSim(EversionSim):
                              qk.ContactLaw(cfg.barrier_gap_m, self._kappa, self._friction_slip()))
         phi_ref, u_ref = phi.copy(), u.copy()
         predicted = self._predict(phi, u, a, pieces)
-        iters = 0
+        iters = refreshes = 0
         # one Newton iteration's work: O(m) with the semiseparable solver, O(m^3) with the dense one
         m = len(phi) + 3 * len(pieces)
         per_iteration = 1.0 + m / 32.0 + ((m / 40.0) ** 3 if cfg.linear_solver == "dense" else 0.0)
@@ -1043,6 +1047,7 @@ class QuasiStaticSim(EversionSim):
                 res = qk.solve_increment(problem, phi, phi_ref, u, u_ref, win.s_nodes, win.robot_mu, win.wall_mu, win.entries, settings)
             status, it, res_m, res_f = res.status, res.iterations, res.residual_m, res.residual_f
             iters += it
+            refreshes += res.refreshes
             self._work_left -= it * per_iteration
             if cut and status != qk.CONVERGED:
                 self._retry_ok = False  # no budget left to retry it shorter either
@@ -1056,6 +1061,7 @@ class QuasiStaticSim(EversionSim):
             phi[:] = phi_ref
             u[:] = u_ref
         self._stats.newton_iterations += iters
+        self._stats.lag_refreshes += refreshes
         if status == qk.INFEASIBLE_START:
             return False
         reach = qk.max_node_shift(win.chain, phi, nodes[a:])

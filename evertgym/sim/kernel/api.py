@@ -58,16 +58,16 @@ def _solve_increment(problem: Problem, phi: np.ndarray, phi_ref: np.ndarray, u: 
                      robot_mu: np.ndarray, wall_mu: np.ndarray, entries: Entries, settings: SolveSettings) -> tuple:
     r = newton.solve_increment(problem, phi, phi_ref, u, u_ref, s_nodes, robot_mu, wall_mu, entries, settings)
     return (r.status, r.iterations, r.residual_m, r.residual_f, _entries_tuple(r.entries), r.seg_force, r.seg_moment, r.tip, r.rows,
-            r.lag_converged)
+            r.lag_converged, r.refreshes)
 
 
 def solve_increment(problem: Problem, phi: np.ndarray, phi_ref: np.ndarray, u: np.ndarray, u_ref: np.ndarray, s_nodes: np.ndarray,
                     robot_mu: np.ndarray, wall_mu: np.ndarray, entries: Entries, settings: SolveSettings) -> SolveResult:
     """:func:`evertgym.sim.kernel.newton.solve_increment`, called from Python (``phi`` and ``u`` updated
     in place)."""
-    status, iterations, res_m, res_f, new, seg_force, seg_moment, tip, rows, lag_converged = _solve_increment(
+    status, iterations, res_m, res_f, new, seg_force, seg_moment, tip, rows, lag_converged, refreshes = _solve_increment(
         problem, phi, phi_ref, u, u_ref, s_nodes, robot_mu, wall_mu, entries, settings)
-    return SolveResult(status, iterations, res_m, res_f, Entries(*new), seg_force, seg_moment, tip, rows, lag_converged)
+    return SolveResult(status, iterations, res_m, res_f, Entries(*new), seg_force, seg_moment, tip, rows, lag_converged, refreshes)
 
 
 @nb.njit(cache=True, nogil=True)

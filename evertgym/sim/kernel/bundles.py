@@ -146,7 +146,8 @@ class SolveResult(NamedTuple):
     about the origin ``seg_moment`` (m; N m), ``tip`` = ``(F_tip, fx, fy, gap)`` (the reaction against
     growth and the total force on the tip segment, N; the tip segment's smallest gap, m) and the
     contact ``rows`` at the end (:func:`evertgym.sim.kernel.contacts.pair_rows`); ``lag_converged``: whether
-    the friction lag's normal forces stopped changing within its re-solves."""
+    the friction lag's normal forces stopped changing within its refreshes, and ``refreshes``: how many
+    times the lag's entries were made again."""
 
     status: int
     iterations: int
@@ -158,6 +159,7 @@ class SolveResult(NamedTuple):
     tip: np.ndarray
     rows: np.ndarray
     lag_converged: bool
+    refreshes: int
 
 
 class Body(NamedTuple):

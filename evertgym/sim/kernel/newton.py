@@ -297,7 +297,7 @@ def _refresh(problem: Problem, lst: Listing, entries: Entries, fr: Friction, e0:
 
 @nb.njit(cache=True, nogil=True)
 def solve(problem: Problem, phi: np.ndarray, u: np.ndarray, entries: Entries, lag: LagSource, settings: SolveSettings,
-          rows0: np.ndarray) -> tuple[int, int, float, float, Entries, bool]:
+          rows0: np.ndarray) -> tuple[int, int, float, float, Entries, bool, int]:
     """Newton's method on the incremental potential from ``(phi, u)`` (updated in place) with the
     friction lag: ``entries``, the lagged friction at the start, are made again from the contacts
     (:func:`~evertgym.sim.kernel.friction.new_entries`, from ``lag``) at every iterate where they have
@@ -307,11 +307,11 @@ def solve(problem: Problem, phi: np.ndarray, u: np.ndarray, entries: Entries, la
     least those within ``dhat + 2 max_move``; once anything has moved by ``max_move`` the rows are
     listed again from every wall (:func:`~evertgym.sim.kernel.contacts.contacts`).
 
-    Returns ``(status, iterations, residual_m, residual_f, entries, lag_converged)``: the largest
+    Returns ``(status, iterations, residual_m, residual_f, entries, lag_converged, refreshes)``: the largest
     unbalanced joint moment (N m) and wall-piece force (N) at the end; ``status`` is
     :data:`CONVERGED` when they are below ``tol_m`` and ``tol_f``; the entries at the end, and
     whether the contacts there give the same ones (normal forces within ``tol_f``,
-    :func:`~evertgym.sim.kernel.friction.same_entries`).  A step moves no node by more than
+    :func:`~evertgym.sim.kernel.friction.same_entries`), and how many times they were made again.  A step moves no node by more than
     ``max_move`` (m); the Newton budget ``max_iter`` counts from the last refresh, and a solve that
     spends it makes the entries again there (while the lag's budget lasts) and goes on."""
     m = phi.shape[0]
@@ -324,7 +324,7 @@ def solve(problem: Problem, phi: np.ndarray, u: np.ndarray, entries: Entries, la
     fr = _resolved(problem, entries, lag)
     e0 = energy(problem, phi, u, nodes, lst.near, fr, lst.geo)
     if not math.isfinite(e0):
-        return INFEASIBLE_START, 0, np.inf, np.inf, entries, False
+        return INFEASIBLE_START, 0, np.inf, np.inf, entries, False, 0
     res_m = np.inf
     res_f = np.inf
     shift = 0.0  # the last Levenberg shift, warm start of the next
@@ -355,7 +355,7 @@ def solve(problem: Problem, phi: np.ndarray, u: np.ndarray, entries: Entries, la
                     near = True
                     continue
             if same or refreshes == settings.lag_iterations:
-                return CONVERGED, iters, res_m, res_f, entries, same
+                return CONVERGED, iters, res_m, res_f, entries, same, refreshes
         reach = LAG_REFRESH_FACTOR if refreshes < LAG_EARLY_REFRESHES else 1.0
         near = res_m <= reach * settings.tol_m and res_f <= reach * settings.tol_f
         if since == settings.max_iter:  # Newton's budget spent: the entries made again here, or the end
@@ -370,7 +370,7 @@ def solve(problem: Problem, phi: np.ndarray, u: np.ndarray, entries: Entries, la
             continue
         step, shift = direction(hs, grad, m, npc, settings.semi, max(SHIFT_WARM_START * shift, damp))
         if shift < 0:
-            return LINE_SEARCH_FAILED, iters, res_m, res_f, entries, False
+            return LINE_SEARCH_FAILED, iters, res_m, res_f, entries, False, refreshes
         scale, whole, nodes1 = step_caps(problem, phi, nodes, step, max_move)
         slope = 0.0
         for i in range(step.shape[0]):
@@ -378,7 +378,7 @@ def solve(problem: Problem, phi: np.ndarray, u: np.ndarray, entries: Entries, la
         first = nodes1 if whole else np.empty((0, 2))
         trial = line_search(problem, fr, phi, u, nodes, e0, step, slope, scale, first, lst, rho)
         if not trial.accepted:
-            return LINE_SEARCH_FAILED, iters, res_m, res_f, entries, False
+            return LINE_SEARCH_FAILED, iters, res_m, res_f, entries, False, refreshes
         iters += 1
         since += 1
         damp = _damping(damp, shift, trial.alpha, scale, hs, settings.semi)
@@ -394,7 +394,7 @@ def solve(problem: Problem, phi: np.ndarray, u: np.ndarray, entries: Entries, la
             e0 = energy(problem, phi, u, nodes, lst.near, fr, lst.geo)
         else:  # the same pairs at the accepted trial: its energy
             e0 = trial.energy
-    return MAX_ITERATIONS, iters, res_m, res_f, entries, False
+    return MAX_ITERATIONS, iters, res_m, res_f, entries, False, refreshes
 
 
 @nb.njit(cache=True, nogil=True)
@@ -433,9 +433,9 @@ def solve_increment(problem: Problem, phi: np.ndarray, phi_ref: np.ndarray, u: n
     lag = LagSource(window_nodes(chain, phi_ref), u_ref.copy(), s_nodes, robot_mu, wall_mu)
     reach = CANDIDATE_STEPS * settings.max_move + dhat  # candidates for every pair a solve can reach
     wide = contacts(chain, phi, problem.walls, pc0, u, dhat, reach)  # their rows now
-    status, iters, res_m, res_f, entries, lag_converged = solve(problem, phi, u, entries, lag, settings, wide)
+    status, iters, res_m, res_f, entries, lag_converged, refreshes = solve(problem, phi, u, entries, lag, settings, wide)
     if drift(window_nodes(chain, phi), lag.start_nodes, u, lag.u0) > WIDE_RELIST_FRACTION * reach:
         wide = contacts(chain, phi, problem.walls, pc0, u, dhat, reach)
     wide = pair_rows(chain, phi, problem.walls, pc0, u, rows_to_pairs(wide), dhat, WIDE_REACH_M)
     acc_f, acc_m, tip = segment_forces(problem, phi, u, wide, _resolved(problem, entries, lag))
-    return SolveResult(status, iters, res_m, res_f, entries, acc_f, acc_m, tip, rows_where(wide, dhat), lag_converged)
+    return SolveResult(status, iters, res_m, res_f, entries, acc_f, acc_m, tip, rows_where(wide, dhat), lag_converged, refreshes)
