@@ -52,29 +52,8 @@ def try_cholesky(a: np.ndarray) -> tuple[np.ndarray, bool]:
 
 
 @nb.njit(cache=True, nogil=True)
-def sub_at_b(c: np.ndarray, a: np.ndarray, b: np.ndarray) -> None:
-    """``c -= a^T b`` in place (``a``: (m, p), ``b``: (m, q), ``c``: (p, q))."""
-    for i in range(a.shape[1]):
-        for j in range(b.shape[1]):
-            s = 0.0
-            for k in range(a.shape[0]):
-                s += a[k, i] * b[k, j]
-            c[i, j] -= s
-
-
-@nb.njit(cache=True, nogil=True)
-def sub_at_v(c: np.ndarray, a: np.ndarray, v: np.ndarray) -> None:
-    """``c -= a^T v`` in place (``a``: (m, p), ``v``: (m,))."""
-    for i in range(a.shape[1]):
-        s = 0.0
-        for k in range(a.shape[0]):
-            s += a[k, i] * v[k]
-        c[i] -= s
-
-
-@nb.njit(cache=True, nogil=True)
 def sub_a_v(c: np.ndarray, a: np.ndarray, v: np.ndarray) -> None:
-    """``c -= a v`` in place (``a``: (m, p), ``v``: (p,))."""
+    """``c -= a v`` in place (``a``: (m, p), ``v``: (p,)); ``a^T v`` with ``a.T``."""
     for i in range(a.shape[0]):
         s = 0.0
         for k in range(a.shape[1]):
@@ -84,7 +63,7 @@ def sub_a_v(c: np.ndarray, a: np.ndarray, v: np.ndarray) -> None:
 
 @nb.njit(cache=True, nogil=True)
 def sub_a_bt(c: np.ndarray, a: np.ndarray, b: np.ndarray) -> None:
-    """``c -= a b^T`` in place (``a``, ``b``: (m, p), ``c``: (m, m))."""
+    """``c -= a b^T`` in place (``a``: (m, p), ``b``: (n, p), ``c``: (m, n)); ``a^T b`` with ``a.T``, ``b.T``."""
     for i in range(a.shape[0]):
         for j in range(b.shape[0]):
             s = 0.0
@@ -404,8 +383,8 @@ def solve_kept(gen2: np.ndarray, q: np.ndarray, low: np.ndarray, z: np.ndarray, 
                 t[3 * c + i, 3 * c + j] = hpp[p, i, j]
             t[3 * c + i, 3 * c + i] += mu
             rb[3 * c + i] = rhs[m + 3 * p + i]
-    sub_at_b(t, bm, y)
-    sub_at_v(rb, bm, z)
+    sub_a_bt(t, bm.T, y.T)
+    sub_a_v(rb, bm.T, z)
     for i in range(3 * nb_):  # symmetric to rounding: its lower half
         for j in range(i + 1, 3 * nb_):
             t[i, j] = t[j, i]
@@ -608,7 +587,7 @@ def schur_solve(hess: np.ndarray, hjp: np.ndarray, hpp: np.ndarray, rhs: np.ndar
                 x = np.empty(n)
                 x[:m] = xs
                 neg_btx = np.zeros(3 * nc)
-                sub_at_v(neg_btx, b, xs)  # -B^T x_joints
+                sub_a_v(neg_btx, b.T, xs)  # -B^T x_joints
                 c = 0
                 for p in range(npc):  # x_p = D_p^-1 (rhs_p - B_p^T x_joints)
                     o = m + 3 * p
