@@ -1092,6 +1092,12 @@ class QuasiStaticSim(EversionSim):
             self._u_solved = self._u_all.copy()
         merged = qk.merge_friction(fric_entries, win.in_window, win.sel, res.entries)
         self._fric = dict(zip(("s", "wall", "wl", "t", "ml"), merged))
+        self._commit_forces(a, res)
+        return True
+
+    def _commit_forces(self, a: int, res: qk.SolveResult) -> None:
+        """The wall forces of a committed solve of joints ``a..``: per segment (N; moments N m), the
+        segments in contact, the tip's reaction (N), its contact force and its clearance (m)."""
         n = len(self.phi)
         if len(self._seg_force) != n:
             self._seg_force = np.vstack([self._seg_force, np.zeros((n - len(self._seg_force), 2))])[:n]
@@ -1103,7 +1109,6 @@ class QuasiStaticSim(EversionSim):
         self.tip_contact = np.array([res.tip[1], res.tip[2]])
         self._tip_clearance = float(res.tip[3])
         self._free_until = -1.0
-        return True
 
     # ---- events, stalls ---------------------------------------------------------------------
     @property
