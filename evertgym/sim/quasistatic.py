@@ -1000,7 +1000,8 @@ class QuasiStaticSim(EversionSim):
         n = min(len(change), len(self.phi))
         if n > a:
             phi[:n - a] += scale * change[a:n]
-        u += scale * change_u[pieces]
+        if len(pieces):
+            u += scale * change_u[pieces]
         return True
 
     def _solve_window_at(self, a: int, tol_m: float, tol_f: float, margin: float) -> bool | float:
@@ -1079,15 +1080,17 @@ class QuasiStaticSim(EversionSim):
             self._stats.failures += 1
             self._event("solve_failed", status=int(status), residual=round(ratio, 6))
         # commit the window
-        change, change_u = np.zeros(len(self.phi)), np.zeros_like(self._u_all)
+        change, change_u = np.zeros(len(self.phi)), np.zeros(self._u_all.shape)
         change[a:] = phi - phi_ref
-        change_u[pieces] = u - u_ref
+        if len(pieces):
+            change_u[pieces] = u - u_ref
         self._last_change = (change, change_u, self._grown)
         self.phi[a:] = phi
         self._turn = None
         # the solved pieces take their equilibrium (at rest if nothing pushes them); the others stay
         # where the held body holds them (putting them back at rest would push them into it)
-        self._u_all[pieces] = u
+        if len(pieces):
+            self._u_all[pieces] = u
         if len(self._piece_bodies):  # what the scene's pymunk pieces show after the step (_show_pieces)
             self._u_solved = self._u_all.copy()
         merged = qk.merge_friction(fric_entries, win.in_window, win.sel, res.entries)
