@@ -3,11 +3,11 @@
 OpenBLAS splits a product over as many threads as the process may use, and a split sums in another
 order: measured on a 2-core machine, 100 random-action Colon-v0 steps gave other observation bits
 with 2 BLAS threads than with 1, and a PPO training from the same config diverged from its first
-checkpoint.  The compliant wall's compliance (``K^-1``, :mod:`evertgym.scenes.compliant`), from
-which each wall piece's spring comes, is inverted by numpy's LAPACK, so it runs with one BLAS
-thread.  (The compiled kernel, :mod:`evertgym.sim.kernel`, calls no BLAS: its products and
-factorisations are plain loops.)  The limit is scoped with threadpoolctl: the caller's own numpy
-keeps its threads outside (about 25 us per call).
+checkpoint.  So these run with one BLAS thread: the compliant wall's compliance (``K^-1``,
+:mod:`evertgym.scenes.compliant`), from which each wall piece's spring comes, and the dense linear
+solver's LAPACK factor (``linear_solver="dense"``).  The default semiseparable solver calls no BLAS
+(:mod:`evertgym.sim.kernel.linear`), and its steps are not scoped.  The limit is scoped with
+threadpoolctl: the caller's own numpy keeps its threads outside (about 25 us per call).
 """
 from __future__ import annotations
 

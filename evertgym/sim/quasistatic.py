@@ -43,12 +43,14 @@ from __future__ import annotations
 
 import functools
 import math
+from contextlib import AbstractContextManager, nullcontext
 from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
 import pymunk
 
+from evertgym._blas import one_blas_thread
 from evertgym.model.pressure import _END_SLOPE, KINK_MOMENT_FRACTION, wrinkled_moment_fraction
 from evertgym.scenes.scene import Scene
 from evertgym.sim import kernel as qk
@@ -354,7 +356,8 @@ class QuasiStaticSim(EversionSim):
         self._moments = np.zeros(0)  # the joints' moments (N m) last published
         self._seg_r0: dict[int, float] = {}  # per full segment: its radius unflattened (m)
         self._apply_pressure(0.0)
-        self._solve()
+        with self._blas_scope():
+            self._solve()
         self._publish()
         self._show_pieces()
 
@@ -555,10 +558,12 @@ class QuasiStaticSim(EversionSim):
         A Ctrl-C (SIGINT) whose handler runs inside a compiled solve (numba calls back into Python to
         build the exceptions it raises and catches) surfaces, when the solve returns, as a chain of
         ``SystemError`` caused by the ``KeyboardInterrupt``: it is raised here as the interrupt it is,
-        so that a resumable command stops and says how to resume.  The compiled kernel calls no BLAS
-        (:mod:`evertgym.sim.kernel.linear`): the answers do not depend on the cores."""
+        so that a resumable command stops and says how to resume.  The default solver calls no BLAS
+        and the dense one runs with one BLAS thread (:meth:`_blas_scope`): the answers do not depend on
+        the cores."""
         try:
-            self._step(n_steps)
+            with self._blas_scope():
+                self._step(n_steps)
         except SystemError as e:
             cause: BaseException | None = e
             while cause is not None and not isinstance(cause, KeyboardInterrupt):
@@ -566,6 +571,11 @@ class QuasiStaticSim(EversionSim):
             if cause is not None:
                 raise KeyboardInterrupt from None
             raise
+
+    def _blas_scope(self) -> AbstractContextManager:
+        """One BLAS thread for the dense linear solver's LAPACK factor (:mod:`evertgym._blas`); nothing
+        for the semiseparable one, whose solves call no BLAS (:mod:`evertgym.sim.kernel.linear`)."""
+        return one_blas_thread() if self.cfg.linear_solver == "dense" else nullcontext()
 
     def _step(self, n_steps: int) -> None:
         cfg = self.cfg

@@ -29,10 +29,20 @@ SHIFT_GROWTH = 10.0
 
 @nb.njit(cache=True, nogil=True)
 def try_cholesky(a: np.ndarray) -> tuple[np.ndarray, bool]:
-    """The lower Cholesky factor of ``a`` (read from its lower triangle) and True, or ``a`` and False
-    if it is not positive definite.  Plain loops, as every product in this module: the kernel calls
-    no BLAS nor LAPACK, so it loads no BLAS library (17 MB of a process) and its bits do not depend
-    on a library's threads or blocking."""
+    """The Cholesky factor of ``a`` and True, or ``a`` and False if it is not positive definite
+    (LAPACK: the dense solver's factor of the joints' block, up to hundreds of rows; the engine runs
+    it with one BLAS thread, :mod:`evertgym._blas`)."""
+    try:
+        return np.linalg.cholesky(a), True
+    except Exception:  # not positive definite
+        return a, False
+
+
+@nb.njit(cache=True, nogil=True)
+def small_cholesky(a: np.ndarray) -> tuple[np.ndarray, bool]:
+    """:func:`try_cholesky` in plain loops, for the semiseparable solver's few-by-few matrix of kept
+    pieces (:func:`solve_kept`): with its products below, the default solver calls no BLAS nor LAPACK,
+    so its bits do not depend on a library's threads or blocking.  Reads ``a``'s lower triangle."""
     n = a.shape[0]
     low = np.zeros((n, n))
     for j in range(n):
@@ -388,7 +398,7 @@ def solve_kept(gen2: np.ndarray, q: np.ndarray, low: np.ndarray, z: np.ndarray, 
     for i in range(3 * nb_):  # symmetric to rounding: its lower half
         for j in range(i + 1, 3 * nb_):
             t[i, j] = t[j, i]
-    lt, spd = try_cholesky(t)
+    lt, spd = small_cholesky(t)
     if spd:
         xb = substitute(lt, rb)
         sub_a_v(z, y, xb)
@@ -560,6 +570,7 @@ def schur_solve(hess: np.ndarray, hjp: np.ndarray, hpp: np.ndarray, rhs: np.ndar
                 for j in range(3):
                     b[i, 3 * c + j] = hjp[i, 3 * p + j]
             c += 1
+    bt = np.ascontiguousarray(b.T)
     mu = mu0
     d = np.empty((3, 3))
     bd = np.empty((m, 3 * nc))
@@ -574,11 +585,8 @@ def schur_solve(hess: np.ndarray, hjp: np.ndarray, hpp: np.ndarray, rhs: np.ndar
                     rc[3 * c + j] = rhs[m + 3 * p + j]
                     for i in range(m):
                         bd[i, 3 * c + j] = b[i, 3 * c] * dinv[p, 0, j] + b[i, 3 * c + 1] * dinv[p, 1, j] + b[i, 3 * c + 2] * dinv[p, 2, j]
-            schur = hess.copy()
-            r = rhs[:m].copy()
-            if nc:
-                sub_a_bt(schur, bd, b)
-                sub_a_v(r, bd, rc)
+            schur = hess - bd @ bt if nc else hess.copy()
+            r = rhs[:m] - bd @ rc if nc else rhs[:m].copy()
             for i in range(m):
                 schur[i, i] += mu
             low, spd = try_cholesky(schur)  # else a larger shift for every factor
@@ -586,15 +594,14 @@ def schur_solve(hess: np.ndarray, hjp: np.ndarray, hpp: np.ndarray, rhs: np.ndar
                 xs = substitute(low, r)
                 x = np.empty(n)
                 x[:m] = xs
-                neg_btx = np.zeros(3 * nc)
-                sub_a_v(neg_btx, b.T, xs)  # -B^T x_joints
+                btx = bt @ xs if nc else np.zeros(0)
                 c = 0
                 for p in range(npc):  # x_p = D_p^-1 (rhs_p - B_p^T x_joints)
                     o = m + 3 * p
                     v = rhs[o:o + 3].copy()
                     if coupled[p]:
                         for i in range(3):
-                            v[i] += neg_btx[3 * c + i]
+                            v[i] -= btx[3 * c + i]
                         c += 1
                     for i in range(3):
                         x[o + i] = dinv[p, i, 0] * v[0] + dinv[p, i, 1] * v[1] + dinv[p, i, 2] * v[2]
