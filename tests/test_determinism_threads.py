@@ -29,8 +29,8 @@ def _digest(threads: int) -> str:
 
 
 def test_colon_steps_are_the_same_bits_with_one_or_two_blas_threads():
-    """100 random-action Colon-v0 steps (compliant wall pieces: the wall's compliance goes through
-    numpy's LAPACK; the kernel's Schur complement is plain loops) give the same observations and rewards,
+    """100 random-action Colon-v0 steps (compliant wall pieces: the Schur complement's matrix
+    products and the wall's compliance go through BLAS) give the same observations and rewards,
     bit for bit, with one BLAS thread and with two.  Before :mod:`evertgym._blas` they did not
     (the rewards differed), and a PPO training diverged from its own config on another core count."""
     assert _digest(1) == _digest(2)

@@ -364,30 +364,3 @@ def test_a_segments_gap_is_the_python_loops():
             finite += math.isfinite(want)
     env.close()
     assert checked > 20 and finite > 10
-
-
-def test_the_kernels_cholesky_and_products_are_numpys_to_rounding():
-    """The semiseparable solver's plain-loop Cholesky and matrix products (it calls no BLAS) against
-    numpy's: the same factor and products to rounding on random matrices; an indefinite or NaN matrix
-    refused."""
-    rng = np.random.default_rng(5)
-    for n in (1, 2, 3, 7, 30):
-        g = rng.normal(size=(n, n))
-        a = g @ g.T + n * np.eye(n)
-        low, ok = linear.small_cholesky(a)
-        assert ok and np.allclose(low, np.linalg.cholesky(a), rtol=1e-12, atol=1e-12)
-        b, c, v = rng.normal(size=(n, 4)), rng.normal(size=(n, 4)), rng.normal(size=n)
-        out = np.ones((4, 4))
-        linear.sub_a_bt(out, b.T, c.T)
-        assert np.allclose(out, 1.0 - b.T @ c, rtol=1e-12, atol=1e-12)
-        out4 = np.ones(4)
-        linear.sub_a_v(out4, b.T, v)
-        assert np.allclose(out4, 1.0 - b.T @ v, rtol=1e-12, atol=1e-12)
-        outn = np.ones(n)
-        linear.sub_a_v(outn, b, out4)
-        assert np.allclose(outn, 1.0 - b @ out4, rtol=1e-12, atol=1e-12)
-        outm = np.ones((n, n))
-        linear.sub_a_bt(outm, b, c)
-        assert np.allclose(outm, 1.0 - b @ c.T, rtol=1e-12, atol=1e-12)
-    assert not linear.small_cholesky(np.array([[1.0, 2.0], [2.0, 1.0]]))[1]
-    assert not linear.small_cholesky(np.array([[np.nan]]))[1]

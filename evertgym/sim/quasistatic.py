@@ -43,7 +43,6 @@ from __future__ import annotations
 
 import functools
 import math
-from contextlib import AbstractContextManager, nullcontext
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -356,7 +355,7 @@ class QuasiStaticSim(EversionSim):
         self._moments = np.zeros(0)  # the joints' moments (N m) last published
         self._seg_r0: dict[int, float] = {}  # per full segment: its radius unflattened (m)
         self._apply_pressure(0.0)
-        with self._blas_scope():
+        with one_blas_thread():
             self._solve()
         self._publish()
         self._show_pieces()
@@ -558,11 +557,10 @@ class QuasiStaticSim(EversionSim):
         A Ctrl-C (SIGINT) whose handler runs inside a compiled solve (numba calls back into Python to
         build the exceptions it raises and catches) surfaces, when the solve returns, as a chain of
         ``SystemError`` caused by the ``KeyboardInterrupt``: it is raised here as the interrupt it is,
-        so that a resumable command stops and says how to resume.  The default solver calls no BLAS
-        and the dense one runs with one BLAS thread (:meth:`_blas_scope`): the answers do not depend on
-        the cores."""
+        so that a resumable command stops and says how to resume.  The solves run with one BLAS
+        thread (:mod:`evertgym._blas`): the answers do not depend on the cores."""
         try:
-            with self._blas_scope():
+            with one_blas_thread():
                 self._step(n_steps)
         except SystemError as e:
             cause: BaseException | None = e
@@ -571,11 +569,6 @@ class QuasiStaticSim(EversionSim):
             if cause is not None:
                 raise KeyboardInterrupt from None
             raise
-
-    def _blas_scope(self) -> AbstractContextManager:
-        """One BLAS thread for the dense linear solver's LAPACK factor (:mod:`evertgym._blas`); nothing
-        for the semiseparable one, whose solves call no BLAS (:mod:`evertgym.sim.kernel.linear`)."""
-        return one_blas_thread() if self.cfg.linear_solver == "dense" else nullcontext()
 
     def _step(self, n_steps: int) -> None:
         cfg = self.cfg

@@ -29,57 +29,11 @@ SHIFT_GROWTH = 10.0
 
 @nb.njit(cache=True, nogil=True)
 def try_cholesky(a: np.ndarray) -> tuple[np.ndarray, bool]:
-    """The Cholesky factor of ``a`` and True, or ``a`` and False if it is not positive definite
-    (LAPACK: the dense solver's factor of the joints' block, up to hundreds of rows; the engine runs
-    it with one BLAS thread, :mod:`evertgym._blas`)."""
+    """The Cholesky factor of ``a`` and True, or ``a`` and False if it is not positive definite."""
     try:
         return np.linalg.cholesky(a), True
     except Exception:  # not positive definite
         return a, False
-
-
-@nb.njit(cache=True, nogil=True)
-def small_cholesky(a: np.ndarray) -> tuple[np.ndarray, bool]:
-    """:func:`try_cholesky` in plain loops, for the semiseparable solver's few-by-few matrix of kept
-    pieces (:func:`solve_kept`): with its products below, the default solver calls no BLAS nor LAPACK,
-    so its bits do not depend on a library's threads or blocking.  Reads ``a``'s lower triangle."""
-    n = a.shape[0]
-    low = np.zeros((n, n))
-    for j in range(n):
-        d = a[j, j]
-        for k in range(j):
-            d -= low[j, k] * low[j, k]
-        if not d > 0.0:  # (a NaN too)
-            return a, False
-        ljj = math.sqrt(d)
-        low[j, j] = ljj
-        for i in range(j + 1, n):
-            s = a[i, j]
-            for k in range(j):
-                s -= low[i, k] * low[j, k]
-            low[i, j] = s / ljj
-    return low, True
-
-
-@nb.njit(cache=True, nogil=True)
-def sub_a_v(c: np.ndarray, a: np.ndarray, v: np.ndarray) -> None:
-    """``c -= a v`` in place (``a``: (m, p), ``v``: (p,)); ``a^T v`` with ``a.T``."""
-    for i in range(a.shape[0]):
-        s = 0.0
-        for k in range(a.shape[1]):
-            s += a[i, k] * v[k]
-        c[i] -= s
-
-
-@nb.njit(cache=True, nogil=True)
-def sub_a_bt(c: np.ndarray, a: np.ndarray, b: np.ndarray) -> None:
-    """``c -= a b^T`` in place (``a``: (m, p), ``b``: (n, p), ``c``: (m, n)); ``a^T b`` with ``a.T``, ``b.T``."""
-    for i in range(a.shape[0]):
-        for j in range(b.shape[0]):
-            s = 0.0
-            for k in range(a.shape[1]):
-                s += a[i, k] * b[j, k]
-            c[i, j] -= s
 
 
 @nb.njit(cache=True, nogil=True)
@@ -393,15 +347,15 @@ def solve_kept(gen2: np.ndarray, q: np.ndarray, low: np.ndarray, z: np.ndarray, 
                 t[3 * c + i, 3 * c + j] = hpp[p, i, j]
             t[3 * c + i, 3 * c + i] += mu
             rb[3 * c + i] = rhs[m + 3 * p + i]
-    sub_a_bt(t, bm.T, y.T)
-    sub_a_v(rb, bm.T, z)
+    t -= bm.T @ y
+    rb -= bm.T @ z
     for i in range(3 * nb_):  # symmetric to rounding: its lower half
         for j in range(i + 1, 3 * nb_):
             t[i, j] = t[j, i]
-    lt, spd = small_cholesky(t)
+    lt, spd = try_cholesky(t)
     if spd:
         xb = substitute(lt, rb)
-        sub_a_v(z, y, xb)
+        z -= y @ xb
     return xb, spd
 
 
