@@ -187,6 +187,32 @@ def test_the_semiseparable_solve_is_the_dense_one_to_rounding():
     assert shifted > 10  # the ladder was exercised
 
 
+def test_a_decayed_warm_start_still_finds_the_shift():
+    """The Newton driver warm-starts the Levenberg shift from a tenth of the last one, which decays
+    towards zero while the Hessian stays positive definite (1e-67 after 60 iterations at one UBend-v0
+    stall).  When the Hessian then turns indefinite, both solvers still find a shift that makes it
+    positive definite: the tries below 1e-8 of the largest diagonal term do not count among the forty
+    (from the decayed warm start, forty tenfold steps ended near 1e-27 and the step failed)."""
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        m = int(rng.integers(5, 60))
+        gen = _random_generators(rng, m, compress=True)
+        gen[0, 0] = -5.0  # an indefinite joint
+        full = np.triu(gen[:, 1:4] @ gen[:, 4:7].T)
+        full = full + np.triu(full, 1).T + np.diag(gen[:, 0])
+        rhs = rng.normal(size=m)
+        assert np.min(np.linalg.eigvalsh(full)) < -1e-3
+        for mu0 in (1e-67, 1e-30):
+            x_dense, mu_dense = linear.cholesky_solve(full, rhs, mu0)
+            x_semi, mu_semi = linear.semi_solve(gen, rhs, mu0)
+            assert mu_dense > 1e-3 and mu_semi > 1e-3
+            assert np.min(np.linalg.eigvalsh(full + mu_dense * np.eye(m))) > 0
+            assert np.allclose((full + mu_dense * np.eye(m)) @ x_dense, rhs, rtol=1e-8, atol=1e-10)
+            assert mu_semi == pytest.approx(mu_dense, rel=1e-12, abs=0.0)
+    assert not linear.counted(1e-67, 2.0) and not linear.counted(1.9e-8, 2.0)  # below the first shift: not counted
+    assert linear.counted(0.0, 2.0) and linear.counted(2e-8, 2.0) and linear.counted(1.0, 2.0)
+
+
 def _random_generators(rng: np.random.Generator, m: int, compress: bool, vertex_terms: bool = False) -> np.ndarray:
     """Generators ``[d, a, p]`` of a random joints' block: ``p_j`` from suffix sums of PSD 3 x 3 contact terms,
     minus a compressive part if ``compress``, plus a wall vertex's ``vf`` terms if ``vertex_terms``."""

@@ -17,7 +17,7 @@ from typing import NamedTuple
 import numba as nb
 import numpy as np
 
-#: Shifts tried (growing tenfold) before a solve gives up.
+#: Shifts tried (growing tenfold) before a solve gives up (those below the first non-zero one not counted).
 MAX_SHIFTS = 40
 #: The first non-zero shift, as a fraction of the largest diagonal term ...
 FIRST_SHIFT_FRACTION = 1e-8
@@ -44,6 +44,16 @@ def next_shift(mu: float, diag_max: float) -> float:
 
 
 @nb.njit(cache=True, nogil=True)
+def counted(mu: float, diag_max: float) -> bool:
+    """Whether a failed shift ``mu`` counts among the :data:`MAX_SHIFTS` tries: zero and every shift from
+    1e-8 of the largest diagonal term do; one below that does not.  The Newton driver warm-starts the
+    shift from a tenth of the last one, which decays while the Hessian stays positive definite (to 1e-67
+    at one U-bend stall); from there forty tenfold tries would end near 1e-27, and the step would fail on
+    a Hessian that a shift of the usual size makes positive definite."""
+    return mu == 0.0 or mu >= max(FIRST_SHIFT_FRACTION * diag_max, MIN_SHIFT)
+
+
+@nb.njit(cache=True, nogil=True)
 def cholesky_solve(hess: np.ndarray, rhs: np.ndarray, mu0: float = 0.0) -> tuple[np.ndarray, float]:
     """Solve ``(H + mu I) x = rhs`` with the smallest shift ``mu`` (0, then growing tenfold from
     1e-8 of the largest diagonal term) that makes the matrix positive definite (a Levenberg
@@ -54,13 +64,15 @@ def cholesky_solve(hess: np.ndarray, rhs: np.ndarray, mu0: float = 0.0) -> tuple
     for i in range(n):
         diag_max = max(diag_max, abs(hess[i, i]))
     mu = mu0
-    for _ in range(MAX_SHIFTS):
+    tries = 0
+    while tries < MAX_SHIFTS:
         a = hess.copy()
         for i in range(n):
             a[i, i] += mu
         low, ok = try_cholesky(a)
         if ok:
             return substitute(low, rhs), mu
+        tries += counted(mu, diag_max)
         mu = next_shift(mu, diag_max)
     return np.zeros(n), -1.0
 
@@ -141,9 +153,11 @@ def semi_solve(gen: np.ndarray, rhs: np.ndarray, mu0: float) -> tuple[np.ndarray
     q = np.empty((m, 3))
     low = np.empty(m)
     mu = mu0
-    for _ in range(MAX_SHIFTS):
+    tries = 0
+    while tries < MAX_SHIFTS:
         if semi_factor(gen, mu, q, low):
             return semi_substitute(gen, q, low, rhs), mu
+        tries += counted(mu, diag_max)
         mu = next_shift(mu, diag_max)
     return np.zeros(m), -1.0
 
@@ -428,7 +442,8 @@ def semi_schur_solve(gen: np.ndarray, rec: np.ndarray, hpp: np.ndarray, rhs: np.
     d = np.empty((3, 3))
     dinv = np.empty((npc, 3, 3))
     mu = mu0
-    for _ in range(MAX_SHIFTS):
+    tries = 0
+    while tries < MAX_SHIFTS:
         if pieces_inverse(hpp, mu, d, dinv):
             gen2, r = eliminate_pieces(gen, rhs, cp, dinv, m, npc)
             if semi_factor(gen2, mu, q, low):
@@ -439,6 +454,7 @@ def semi_schur_solve(gen: np.ndarray, rec: np.ndarray, hpp: np.ndarray, rhs: np.
                     x[:m] = z
                     piece_solution(x, z, xb, gen, cp, dinv, rhs, m)
                     return x, mu
+        tries += counted(mu, diag_max)
         mu = next_shift(mu, diag_max)
     return np.zeros(n), -1.0
 
@@ -530,7 +546,8 @@ def schur_solve(hess: np.ndarray, hjp: np.ndarray, hpp: np.ndarray, rhs: np.ndar
     bd = np.empty((m, 3 * nc))
     rc = np.empty(3 * nc)
     dinv = np.empty((npc, 3, 3))
-    for _ in range(MAX_SHIFTS):
+    tries = 0
+    while tries < MAX_SHIFTS:
         if pieces_inverse(hpp, mu, d, dinv):
             # Schur complement S = H_jj + mu I - B D^-1 B^T, r = rhs_j - B D^-1 rhs_p
             for c in range(nc):
@@ -560,6 +577,7 @@ def schur_solve(hess: np.ndarray, hjp: np.ndarray, hpp: np.ndarray, rhs: np.ndar
                     for i in range(3):
                         x[o + i] = dinv[p, i, 0] * v[0] + dinv[p, i, 1] * v[1] + dinv[p, i, 2] * v[2]
                 return x, mu
+        tries += counted(mu, diag_max)
         mu = next_shift(mu, diag_max)
     return np.zeros(n), -1.0
 
