@@ -8,8 +8,9 @@ threads than with 1 (the same with ``OPENBLAS_NUM_THREADS=1`` as pinned to one C
 training from the same config diverged from its first checkpoint.  The compliant wall's
 compliance (``K^-1``, :mod:`evertgym.scenes.compliant`), from which each piece's spring comes,
 depends on the threads too.  An answer must not move with the number of cores, so both run with
-one BLAS thread (for these sizes a second thread buys little).  The limit is scoped with threadpoolctl: the caller's own numpy keeps
-its threads outside the engine's calls (about 25 us per call).
+one BLAS thread (for these sizes a second thread buys little).  The limit is scoped with
+threadpoolctl: the caller's own numpy keeps its threads outside the engine's calls (about 25 us per
+call).
 """
 from __future__ import annotations
 
