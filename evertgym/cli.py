@@ -713,7 +713,8 @@ def cmd_optimize(args: argparse.Namespace) -> int:
     out = optimize_bands(
         {"family": args.scene, "params": params}, args.study, args.db, n_trials=args.trials, n_scenes=args.scenes,
         trials_per_scene=args.trials_per_scene, held_out_scenes=args.held_out, budget_kpa=args.budget_kpa,
-        policy=args.policy, backend=args.backend, progress=not args.json, sim=sim,
+        policy=args.policy, diameter_mm=args.diameter_mm, length_mm=args.length_mm, max_s=args.max_s, backend=args.backend,
+        progress=not args.json, sim=sim,
     )
     # the best against the paper's design and the bare robot, and the paper's design against the bare robot
     out["differences"] = (_differences(out["held_out"], ["best", PAPER_NAME, BARE_NAME])
@@ -1077,6 +1078,9 @@ def build_parser() -> argparse.ArgumentParser:
     op.add_argument("--held-out", type=int, default=8, help="held-out scene seeds for the final comparison")
     op.add_argument("--budget-kpa", type=float, default=3.0, help="pressure budget")
     op.add_argument("--policy", choices=["constant", "operator"], default="constant", help="pressure policy of every trial")
+    op.add_argument("--diameter-mm", type=float, default=40.0, help="tube diameter of every design (mm), [5, 500]")
+    op.add_argument("--length-mm", type=float, default=900.0, help="robot length of every design (mm), [100, 20000]")
+    op.add_argument("--max-s", type=float, default=20.0, help="time limit per trial (s), [0.1, 3600]")
     op.add_argument("--study", default="runs/optimize_study.sqlite", help="optuna study (resumable)")
     op.add_argument("--db", default="runs/optimize_trials.sqlite", help="result store of the trials (resumable)")
     op.add_argument("--backend", choices=["process", "serial", "dask"], default="process", help=_BACKEND_HELP)

@@ -359,10 +359,14 @@ def check_optimize_flags(args: argparse.Namespace, params: Any = None, sim: dict
             raise ValueError(f"{flag} = {v} is out of range: allowed [1, {hi}]")
     if not (math.isfinite(args.budget_kpa) and 0 < args.budget_kpa <= 8.0):
         raise ValueError(f"--budget-kpa = {args.budget_kpa} is out of range: allowed (0, 8] kPa")
+    for flag, v, lo, hi, unit in (("--diameter-mm", args.diameter_mm, 5.0, 500.0, "mm"),
+                                  ("--length-mm", args.length_mm, 100.0, 20_000.0, "mm"), ("--max-s", args.max_s, 0.1, 3600.0, "s")):
+        if not (math.isfinite(v) and lo <= v <= hi):
+            raise ValueError(f"{flag} = {v} is out of range: allowed [{lo:g}, {hi:g}] {unit}")
     try:  # the paper's design and the bare robot, in the scene, as the trials build them
         for n in (3, 0):
             EversionEnv(scene={"family": args.scene, "params": {} if params is None else params},
-                        design=band_design(n, 50.0, 0.1, 300.0, 40.0, 900.0), max_episode_s=20.0,
+                        design=band_design(n, 50.0, 0.1, 300.0, args.diameter_mm, args.length_mm), max_episode_s=args.max_s,
                         band_offset_mm=(-25.0, 25.0), entry_offset_mm=(-5.0, 5.0), sim_config=sim or None)
     except ValueError as e:
         raise ValueError(f"--scene {args.scene!r} with --scene-params {json.dumps(params)[:80]}: {e}") from None

@@ -509,6 +509,9 @@ def test_optimize_checks_its_scene_and_settings_before_the_study(tmp_path, capsy
     _one_line_exit_2(["optimize", "--scene", "spiral", *quick], capsys, "spiral")
     _one_line_exit_2(["optimize", "--sim", '{"solver_tolerance": 1e-9}', *quick], capsys, "solver_tolerance")
     _one_line_exit_2(["optimize", "--budget-kpa", "0", *quick], capsys, "--budget-kpa")
+    _one_line_exit_2(["optimize", "--diameter-mm", "2", *quick], capsys, "--diameter-mm = 2.0", "[5, 500] mm")
+    _one_line_exit_2(["optimize", "--length-mm", "nan", *quick], capsys, "--length-mm = nan", "[100, 20000] mm")
+    _one_line_exit_2(["optimize", "--max-s", "0", *quick], capsys, "--max-s = 0.0", "[0.1, 3600] s")
     assert not study.exists() and not db.exists()
 
 

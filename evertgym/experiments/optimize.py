@@ -58,6 +58,7 @@ def optimize_bands(
     policy: str = "constant",
     diameter_mm: float = 40.0,
     length_mm: float = 900.0,
+    max_s: float = 20.0,
     backend: str = "process",
     seed: int = 0,
     progress: bool = False,
@@ -70,6 +71,7 @@ def optimize_bands(
     designs it already held; ``other_studies``: what the file's other studies were made for).
     ``progress`` shows a bar
     over the designs with the best score so far, then one over the held-out trials (stderr).
+    ``diameter_mm`` and ``length_mm`` are the tube of every design (mm), ``max_s`` each trial's time limit (s).
     ``sim`` overrides :class:`~evertgym.sim.config.SimConfig` fields in every trial.  A study is
     kept per scene and settings (:func:`study_settings`), so a study never resumes for another scene,
     budget, policy, tube, engine or simulator setting.  ``n_trials`` and ``held_out_scenes`` are not
@@ -82,7 +84,7 @@ def optimize_bands(
     if not (0 < budget_kpa <= 8.0):
         raise ValueError(f"budget_kpa = {budget_kpa!r} is out of range: allowed (0, 8] kPa")
     pol = {"name": "constant", "pressure_kpa": budget_kpa} if policy == "constant" else {"name": "operator", "max_kpa": budget_kpa}
-    episode = with_engine({"max_s": 20.0, "band_offset_mm": [-25.0, 25.0], "entry_offset_mm": [-5.0, 5.0], "sim": dict(sim or {})})
+    episode = with_engine({"max_s": float(max_s), "band_offset_mm": [-25.0, 25.0], "entry_offset_mm": [-5.0, 5.0], "sim": dict(sim or {})})
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     if Path(study_path).resolve() == Path(store_path).resolve():
         raise ValueError(f"study_path and store_path are the same file ({study_path}): allowed two files")
