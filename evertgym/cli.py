@@ -1091,7 +1091,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     tr = _sub(sub, "train", "train a pressure policy from a config in agents/")
     tr.add_argument("config", help="a shipped config by name (ubend_ppo_operator, colon_residual_operator, ...: the policy it "
-                    "trained) or a config file, e.g. agents/ubend_ppo.toml")
+                    "trained) or a config file, e.g. agents/tries/ubend_ppo.toml")
     tr.add_argument("--timesteps", type=int, default=None, metavar="N",
                     help="train N env steps instead of the config's n_timesteps, into its own run folder <name>_<N>steps "
                          "(a short try of a config)")

@@ -359,10 +359,10 @@ def check_optimize_flags(args: argparse.Namespace, params: Any = None, sim: dict
             raise ValueError(f"{flag} = {v} is out of range: allowed [1, {hi}]")
     if not (math.isfinite(args.budget_kpa) and 0 < args.budget_kpa <= 8.0):
         raise ValueError(f"--budget-kpa = {args.budget_kpa} is out of range: allowed (0, 8] kPa")
-    for flag, v, lo, hi, unit in (("--diameter-mm", args.diameter_mm, 5.0, 500.0, "mm"),
-                                  ("--length-mm", args.length_mm, 100.0, 20_000.0, "mm"), ("--max-s", args.max_s, 0.1, 3600.0, "s")):
-        if not (math.isfinite(v) and lo <= v <= hi):
-            raise ValueError(f"{flag} = {v} is out of range: allowed [{lo:g}, {hi:g}] {unit}")
+    for flag, v, low, high, unit in (("--diameter-mm", args.diameter_mm, 5.0, 500.0, "mm"),
+                                     ("--length-mm", args.length_mm, 100.0, 20_000.0, "mm"), ("--max-s", args.max_s, 0.1, 3600.0, "s")):
+        if not (math.isfinite(v) and low <= v <= high):
+            raise ValueError(f"{flag} = {v} is out of range: allowed [{low:g}, {high:g}] {unit}")
     try:  # the paper's design and the bare robot, in the scene, as the trials build them
         for n in (3, 0):
             EversionEnv(scene={"family": args.scene, "params": {} if params is None else params},

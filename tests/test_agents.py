@@ -255,7 +255,7 @@ def test_config_validation(tmp_path):
     p.write_text('env_id = "evertgym/UBend-v0"\nalgo = "dqn"\nn_timesteps = 10\n')
     with pytest.raises(ValueError, match="algo = 'dqn'"):
         load_config(p)
-    assert load_config("agents/colon_ppo.toml")["algo"] == "ppo"
+    assert load_config("agents/colon_ppo_operator.toml")["algo"] == "ppo"
     p.write_text('env_id = "evertgym/UBend-v0"\nalgo = "ppo"\nn_timesteps = 10\ndeterministic = "no"\n')
     with pytest.raises(ValueError, match="deterministic = 'no': allowed true or false"):
         load_config(p)
@@ -269,7 +269,7 @@ def test_seed_override_names_its_own_run():
     # no shipped config pins a simulator setting: it trains on the default physics
     assert load_config("agents/colon_ppo_operator.toml")["env_kwargs"] == {"tip_sensing": False, "regulator_tau_s": [0.1, 0.6]}
     with pytest.raises(ValueError, match=r"seed = True is out of range"):
-        load_config("agents/colon_ppo.toml", seed=True)
+        load_config("agents/colon_ppo_operator.toml", seed=True)
 
 
 def test_eval_rows_side_by_side():
@@ -457,7 +457,7 @@ def test_a_stochastic_policy_is_repeatable_per_episode_seed():
             obs, _, term, trunc, info = env.step(a)
         return np.array(out)
 
-    shipped = "agents/ubend_ppo/final.zip"
+    shipped = "agents/ubend_ppo_operator/final.zip"
     a1, a2 = actions(shipped + ":stochastic", 7), actions(shipped + ":stochastic", 7)
     assert np.array_equal(a1, a2) and np.all(np.abs(a1) <= 1.0)
     assert not np.array_equal(a1, actions(shipped + ":stochastic", 8))

@@ -162,12 +162,12 @@ _BLOCKED = textwrap.dedent("""
 
 def test_every_command_that_needs_an_extra_names_it(tmp_path):
     commands = [
-        ["eval", "colon_ppo", "--env", "evertgym/Colon-v0", "--episodes", "1"],
-        ["rollout", "ubend_ppo", "--env", "evertgym/UBend-v0", "--out", str(tmp_path / "r.gif")],
+        ["eval", "colon_ppo_operator", "--env", "evertgym/Colon-v0", "--episodes", "1"],
+        ["rollout", "ubend_ppo_operator", "--env", "evertgym/UBend-v0", "--out", str(tmp_path / "r.gif")],
         ["train", str(_tiny_config(tmp_path)), "--out", str(tmp_path / "runs")],
-        ["score", "--scene", "straight", "--scenes", "1", "--trials", "1", "--policy", "colon_ppo", "--backend", "serial",
+        ["score", "--scene", "straight", "--scenes", "1", "--trials", "1", "--policy", "colon_ppo_operator", "--backend", "serial",
          "--db", str(tmp_path / "a.sqlite")],
-        ["score", "--scene", "straight", "--scenes", "1", "--trials", "1", "--policy", str(ROOT / "agents" / "ubend_ppo" / "final.zip"),
+        ["score", "--scene", "straight", "--scenes", "1", "--trials", "1", "--policy", str(ROOT / "agents" / "ubend_ppo_operator" / "final.zip"),
          "--db", str(tmp_path / "b.sqlite")],
         ["optimize", "--trials", "1", "--study", str(tmp_path / "s.sqlite"), "--db", str(tmp_path / "o.sqlite")],
         ["score", "--scene", "straight", "--scenes", "1", "--trials", "1", "--backend", "dask", "--db", str(tmp_path / "d.sqlite")],
@@ -188,12 +188,13 @@ def test_policies_lists_every_shipped_policy_with_env_observations_config_and_he
 
     assert main(["policies"]) == 0
     out = capsys.readouterr().out
-    assert "197/200 [0.96, 0.99]" in out  # colon_ppo, docs/results/colon_eval.json
+    assert "196/200 [0.95, 0.99]" in out  # tortuous_ppo_operator, docs/results/tortuous_operator_qs_eval.json
     for name in shipped_policies():
         assert f"agents/{name}.toml" in out
     assert main(["policies", "--json"]) == 0
     rows = json.loads(capsys.readouterr().out)["rows"]
     assert [r["name"] for r in rows] == shipped_policies()
+    assert not {"colon_ppo", "ubend_ppo"} & {r["name"] for r in rows}  # retired (their configs are in agents/tries/)
     ubend = rows[[r["name"] for r in rows].index("ubend_ppo_operator")]
     assert ubend["env_id"] == "evertgym/UBend-v0" and ubend["observations"] == {"tip_sensing": False}
     assert ubend["held_out"]["successes"] == 200 and ubend["held_out"]["engine"] == "quasistatic"
@@ -220,7 +221,7 @@ def test_the_held_out_index_agrees_with_the_evaluations_in_docs():
 def test_an_unknown_policy_lists_the_shipped_ones(capsys):
     assert main(["eval", "foo_ppo", "--env", "evertgym/UBend-v0"]) == 2
     err = capsys.readouterr().err
-    assert "unknown policy 'foo_ppo'" in err and "'colon_ppo'" in err and "evertgym policies" in err
+    assert "unknown policy 'foo_ppo'" in err and "'colon_ppo_operator'" in err and "evertgym policies" in err
 
 
 def test_the_eval_table_never_cuts_a_name(monkeypatch, capsys):

@@ -16,16 +16,16 @@ def test_a_shipped_config_by_name_and_a_short_try_of_it(tmp_path):
     from evertgym.agents.train import load_config, resolve_config, run_status
     from evertgym.agents.tuned import shipped_dir
 
-    assert resolve_config("ubend_ppo") == shipped_dir() / "ubend_ppo.toml"
+    assert resolve_config("ubend_ppo_operator") == shipped_dir() / "ubend_ppo_operator.toml"
     cfg = load_config("ubend_ppo_operator", timesteps=2048)
     assert cfg["n_timesteps"] == 2048 and cfg["name"] == "ubend_ppo_operator_2048steps"
     assert load_config("ubend_ppo_operator", seed=1, timesteps=64)["name"] == "ubend_ppo_operator_seed1_64steps"
     status = run_status("colon_residual_operator", tmp_path, None, 100)
     assert status["run_dir"] == str(tmp_path / "colon_residual_operator_100steps") and status["n_timesteps"] == 100
-    with pytest.raises(ValueError, match="neither a file nor a shipped config; shipped: .*'ubend_ppo'"):
-        resolve_config("ubend_ppoo")
+    with pytest.raises(ValueError, match="neither a file nor a shipped config; shipped: .*'ubend_ppo_operator'"):
+        resolve_config("ubend_ppo_operatr")
     with pytest.raises(ValueError, match="timesteps = 0 is out of range"):
-        load_config("ubend_ppo", timesteps=0)
+        load_config("ubend_ppo_operator", timesteps=0)
 
 
 def test_train_refuses_an_unknown_name_in_one_line(capsys):
@@ -54,7 +54,29 @@ def test_policies_fits_100_columns_and_gives_the_correction_in_kpa(capsys):
     assert max(len(line) for line in out.splitlines()) <= 100
     # a residual policy's largest correction in kPa: scale 0.25 action units of a [-1, 1] action over 0-8 kPa
     assert "correcting cycle by at most 1 kPa" in out and "by at most 0.2 kPa" in out
-    assert "197/200 [0.96, 0.99] on dynamic" in out
+    assert "196/200 [0.95, 0.99] on quasistatic" in out  # tortuous_ppo_operator, docs/results/tortuous_operator_qs_eval.json
+
+
+def test_policies_says_which_policy_senses_the_tip_and_the_engine_of_its_number(tmp_path, monkeypatch, capsys):
+    """No shipped policy senses the tip or runs on the dynamic engine (colon_ppo and ubend_ppo were retired), so a
+    folder of one such card stands in for agents/: its line says both (policy_cards reads only JSON)."""
+    import evertgym.agents.policies as policies
+
+    folder = tmp_path / "agents"
+    (folder / "tip_dynamic").mkdir(parents=True)
+    (folder / "tip_dynamic" / "final.zip").write_bytes(b"")
+    (folder / "tip_dynamic" / "final_env.json").write_text(json.dumps(
+        {"env_id": "evertgym/UBend-v0", "env_kwargs": {"tip_sensing": True}, "engine": "dynamic"}))
+    (folder / "held_out.json").write_text(json.dumps({"policies": {"tip_dynamic": {
+        "env_id": "evertgym/UBend-v0", "env_kwargs": {}, "engine": "dynamic", "episodes": 200, "successes": 197,
+        "ci_low": 0.9568, "ci_high": 0.9949, "source": "docs/results/x_eval.json"}}}))
+    monkeypatch.setattr(policies, "shipped_dir", lambda: folder)
+    assert main(["policies"]) == 0
+    out = capsys.readouterr().out
+    assert "197/200 [0.96, 0.99] on dynamic" in out and "observes tip_sensing=true (senses the tip)" in out
+    assert main(["policies", "--json"]) == 0
+    (row,) = json.loads(capsys.readouterr().out)["rows"]
+    assert (row["name"], row["senses_tip"], row["engine"], row["held_out"]["engine"]) == ("tip_dynamic", True, "dynamic", "dynamic")
 
 
 def test_a_misspelt_flag_prints_the_subcommands_usage_and_the_nearest_flag(capsys):

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
@@ -16,28 +17,51 @@ from evertgym.agents.tuned import shipped_dir
 pytest.importorskip("stable_baselines3")
 
 #: What agents/ ships, written out (not globbed) so that a policy added or lost shows here.
-SHIPPED = ["colon_ppo", "colon_ppo_operator", "colon_residual_operator", "tortuous_ppo_operator", "tortuous_residual_operator",
-           "tortuous_v1_residual_operator", "ubend_ppo", "ubend_ppo_operator", "ubend_residual_operator"]
+SHIPPED = ["colon_ppo_operator", "colon_residual_operator", "tortuous_ppo_operator", "tortuous_residual_operator",
+           "tortuous_v1_residual_operator", "ubend_ppo_operator", "ubend_residual_operator"]
 
 
 def test_shipped_policy_loads_with_its_env_and_accepts_that_env_for_fine_tuning():
     from stable_baselines3.common.vec_env import DummyVecEnv
 
-    policy, env_id, env_kwargs = load_policy("colon_ppo")
-    assert env_id == "evertgym/Colon-v0" and env_kwargs == {"tip_sensing": True, "sim_config": {"engine": "dynamic"}}
+    policy, env_id, env_kwargs = load_policy("colon_ppo_operator")
+    assert env_id == "evertgym/Colon-v0"
+    assert env_kwargs == {"tip_sensing": False, "regulator_tau_s": [0.1, 0.6], "sim_config": {"engine": "quasistatic"}}
     env = gym.make(env_id, **env_kwargs)
     obs, info = env.reset(seed=0)
     policy.reset(env)
     action = policy.act(obs, info)
     assert action.shape == (1,) and -1 <= action[0] <= 1
-    # the saved space had +-10 bounds; the loaded model takes the env's, so SB3's check passes
     policy.model.set_env(DummyVecEnv([lambda: gym.make(env_id, **env_kwargs)] * policy.model.n_envs))
     assert policy.model.observation_space == env.observation_space
 
 
+def test_a_model_saved_with_the_old_bounds_takes_the_envs_and_accepts_that_env_for_fine_tuning(tmp_path):
+    """Models saved before 0.2.0 have observation bounds of +-10: the loaded model takes the env's, so SB3's check passes."""
+    import shutil
+
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    policy, env_id, env_kwargs = load_policy("colon_ppo_operator")
+    old = gym.spaces.Box(-10.0, 10.0, policy.model.observation_space.shape, np.float32)
+    policy.model.observation_space = policy.model.policy.observation_space = old
+    policy.model.save(tmp_path / "final.zip")
+    for f in ("final_env.json", "final_vecnormalize.pkl"):
+        shutil.copy(shipped_dir() / "colon_ppo_operator" / f, tmp_path / f)
+    assert PPO.load(tmp_path / "final.zip").observation_space == old  # saved with the old bounds
+    policy, env_id, env_kwargs = load_policy(tmp_path, trust=True)
+    env = gym.make(env_id, **env_kwargs)
+    assert policy.model.observation_space == env.observation_space != old
+    policy.model.set_env(DummyVecEnv([lambda: gym.make(env_id, **env_kwargs)] * policy.model.n_envs))
+    obs, info = env.reset(seed=0)
+    policy.reset(env)
+    assert policy.act(obs, info).shape == (1,)
+
+
 def test_a_path_a_run_folder_and_a_name_resolve_alike():
-    zip_path = shipped_dir() / "ubend_ppo" / "final.zip"
-    assert resolve_policy_path("ubend_ppo") == resolve_policy_path(zip_path.parent) == zip_path == resolve_policy_path(zip_path)
+    zip_path = shipped_dir() / "ubend_ppo_operator" / "final.zip"
+    assert resolve_policy_path("ubend_ppo_operator") == resolve_policy_path(zip_path.parent) == zip_path == resolve_policy_path(zip_path)
     assert shipped_policies() == SHIPPED
 
 
@@ -49,8 +73,8 @@ def test_unknown_policy_names_the_shipped_ones():
 def test_loaded_policy_acts_like_the_cli_path():
     from evertgym.agents.policies import make_policy
 
-    a, env_id, kw = load_policy("ubend_ppo")
-    b = make_policy("ubend_ppo")
+    a, env_id, kw = load_policy("ubend_ppo_operator")
+    b = make_policy("ubend_ppo_operator")
     env = gym.make(env_id, **kw)
     obs, info = env.reset(seed=3)
     a.reset(env)
@@ -78,6 +102,39 @@ def test_a_shipped_policy_was_trained_with_its_config_and_the_operator_ones_neve
         assert env_kwargs["tip_sensing"] is False and env.unwrapped.regulator_tau_range == (0.1, 0.6)
         assert env.observation_space.shape == (3 * (env.unwrapped.history + 1),)  # 3 per sample: no tip force
         env.close()
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_no_shipped_policy_pins_a_non_default_engine_or_solver(name):
+    """Every shipped policy was trained on the default physics, and neither its config nor its
+    final_env.json pins a simulator setting (colon_ppo and ubend_ppo, trained on the dynamic
+    engine, were retired for this: their configs are in agents/tries/)."""
+    import json
+
+    from evertgym.agents.policies import trained_engine
+    from evertgym.agents.train import load_config
+    from evertgym.sim.config import SimConfig
+
+    meta = json.loads((shipped_dir() / name / "final_env.json").read_text())
+    assert "sim_config" not in meta["env_kwargs"] and "sim_config" not in load_config(shipped_dir() / f"{name}.toml")["env_kwargs"]
+    assert trained_engine(name) == meta["engine"] == SimConfig().engine == "quasistatic"
+
+
+def test_a_retired_policy_is_neither_shipped_nor_trusted_and_its_config_trains_by_path():
+    from evertgym.agents.train import load_config, resolve_config
+    from evertgym.agents.trust import trusted_hashes
+
+    tries = Path(__file__).resolve().parents[1] / "agents" / "tries"  # a checkout's: tries are not installed
+    for name in ("colon_ppo", "ubend_ppo"):
+        assert name not in shipped_policies() and not (shipped_dir() / name).exists()
+        with pytest.raises(ValueError, match="nor a shipped policy"):
+            load_policy(name)
+        with pytest.raises(ValueError, match="neither a file nor a shipped config"):
+            resolve_config(name)
+        retired = tries / f"{name}.toml"
+        assert retired.read_text().startswith("# Retired, not a shipped policy")
+        assert load_config(retired)["name"] == name
+    assert len(trusted_hashes()) == 2 * len(SHIPPED)  # a model file and its statistics per shipped policy, no more
 
 
 def test_compare_runs_tells_identical_policies_from_different_ones(capsys, tmp_path):

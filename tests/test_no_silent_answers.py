@@ -91,26 +91,42 @@ def test_an_action_outside_the_action_space_warns_once_per_env():
 
 
 # ---- a trained model runs on the engine it was trained on ---------------------------------------
-def test_eval_runs_a_model_on_the_engine_it_was_trained_on(capsys):
+@pytest.fixture
+def dynamic_model(tmp_path):
+    """A model whose metadata says it was trained on the dynamic engine: a copy of ubend_ppo_operator (no
+    shipped policy is), so loading it needs --trust-model / trust=True."""
     pytest.importorskip("stable_baselines3")
-    # ubend_ppo was trained on the dynamic engine; the default is the quasi-static one
-    assert main(["eval", "ubend_ppo", "--env", "evertgym/UBend-v0", "--episodes", "1", "--json"]) == 0
+    import shutil
+
+    from evertgym.agents.tuned import shipped_dir
+
+    run = tmp_path / "dynamic_run"
+    shutil.copytree(shipped_dir() / "ubend_ppo_operator", run)
+    meta = json.loads((run / "final_env.json").read_text())
+    (run / "final_env.json").write_text(json.dumps({**meta, "engine": "dynamic"}))
+    return str(run / "final.zip")
+
+
+def test_eval_runs_a_model_on_the_engine_it_was_trained_on(dynamic_model, capsys):
+    # the model was trained on the dynamic engine; the default is the quasi-static one
+    assert main(["eval", dynamic_model, "--trust-model", "--env", "evertgym/UBend-v0", "--episodes", "1", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["engine"] == "dynamic" and out["env_kwargs"] == {"sim_config": {"engine": "dynamic"}}
 
 
-def test_eval_and_rollout_refuse_another_engine_in_one_line_naming_the_flag(tmp_path, capsys):
-    pytest.importorskip("stable_baselines3")
+def test_eval_and_rollout_refuse_another_engine_in_one_line_naming_the_flag(dynamic_model, tmp_path, capsys):
     qs = '{"sim_config": {"engine": "quasistatic"}}'
-    for argv in (["eval", "ubend_ppo", "operator", "--env", "evertgym/UBend-v0", "--episodes", "1", "--env-kwargs", qs],
-                 ["rollout", "ubend_ppo", "--env", "evertgym/UBend-v0", "--out", str(tmp_path / "x.gif"), "--env-kwargs", qs],
-                 ["eval", "ubend_ppo", "ubend_ppo_operator", "--env", "evertgym/UBend-v0", "--episodes", "1"]):  # two engines
-        assert main(argv) == 2
+    for argv, says in (
+            (["eval", dynamic_model, "operator", "--env", "evertgym/UBend-v0", "--episodes", "1", "--env-kwargs", qs],
+             "trained on the dynamic engine but the env runs the quasistatic engine"),
+            (["rollout", dynamic_model, "--env", "evertgym/UBend-v0", "--out", str(tmp_path / "x.gif"), "--env-kwargs", qs],
+             "trained on the dynamic engine but the env runs the quasistatic engine"),
+            (["eval", dynamic_model, "ubend_ppo_operator", "--env", "evertgym/UBend-v0", "--episodes", "1"],  # two engines
+             f"trained on different engines ({dynamic_model} on the dynamic, ubend_ppo_operator on the quasistatic)")):
+        assert main([*argv, "--trust-model"]) == 2
         err = capsys.readouterr().err
         assert err.count("\n") == 1, err
-        assert ("trained on the dynamic engine but the env runs the quasistatic engine" in err
-                or "trained on different engines (ubend_ppo on the dynamic, ubend_ppo_operator on the quasistatic)" in err)
-        assert "--allow-engine-mismatch" in err
+        assert says in err and "--allow-engine-mismatch" in err, err
     assert not (tmp_path / "x.gif").exists()
 
 
@@ -140,24 +156,23 @@ def test_a_checkpoint_whose_metadata_names_the_dynamic_engine_runs_there(tmp_pat
     assert "--allow-engine-mismatch" in capsys.readouterr().err
 
 
-def test_load_policy_names_the_engine_and_its_policy_refuses_another():
-    pytest.importorskip("stable_baselines3")
+def test_load_policy_names_the_engine_and_its_policy_refuses_another(dynamic_model):
     import gymnasium as gym
 
     from evertgym.agents import load_policy
 
-    policy, env_id, env_kwargs = load_policy("ubend_ppo")
+    policy, env_id, env_kwargs = load_policy(dynamic_model, trust=True)
     assert env_kwargs["sim_config"]["engine"] == "dynamic"
     env = gym.make(env_id, **env_kwargs)
     obs, info = env.reset(seed=0)
     policy.reset(env)  # its own engine
     env.close()
-    other = gym.make(env_id, tip_sensing=True)  # the default engine: quasi-static
+    other = gym.make(env_id)  # the default engine: quasi-static
     other.reset(seed=0)
     with pytest.raises(ValueError, match="trained on the dynamic engine but the env runs the quasistatic engine.*allow_engine_mismatch"):
         policy.reset(other)
-    policy, _, _ = load_policy("ubend_ppo", allow_engine_mismatch=True)
+    policy, _, _ = load_policy(dynamic_model, trust=True, allow_engine_mismatch=True)
     policy.reset(other)
     other.close()
     _, _, kw = load_policy("ubend_ppo_operator")  # trained on the quasi-static engine: named, not left to the default
-    assert kw["sim_config"] == {"linear_solver": "dense", "engine": "quasistatic"}
+    assert kw["sim_config"] == {"engine": "quasistatic"}

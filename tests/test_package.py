@@ -62,7 +62,7 @@ def test_core_works_without_the_rl_extra():
         assert main(["stiffness", "--no-sim", "--json"]) == 0
         try:
             from evertgym.agents import load_policy
-            load_policy("colon_ppo")
+            load_policy("colon_ppo_operator")
         except ImportError as e:
             assert "pip install 'evertgym[rl]'" in str(e), e
         else:
@@ -108,10 +108,12 @@ def test_wheel_carries_the_data_and_runs_from_a_fresh_venv(tmp_path):
                    check=True, timeout=600)
     wheel = next((tmp_path / "dist").glob("evertgym-*.whl"))
     names = set(zipfile.ZipFile(wheel).namelist())
-    for f in ("evertgym/shipped_agents/tuned_operator.json", "evertgym/shipped_agents/colon_ppo/final.zip",
-              "evertgym/shipped_agents/colon_ppo/final_env.json", "evertgym/shipped_agents/colon_ppo/final_vecnormalize.pkl",
+    for f in ("evertgym/shipped_agents/tuned_operator.json", "evertgym/shipped_agents/colon_ppo_operator/final.zip",
+              "evertgym/shipped_agents/colon_ppo_operator/final_env.json",
+              "evertgym/shipped_agents/colon_ppo_operator/final_vecnormalize.pkl",
               "evertgym/shipped_agents/ppo.yml", "evertgym/presets/colon.toml", "evertgym/data/model_params.json"):
         assert f in names, f
+    assert not [f for f in names if f.startswith(("evertgym/shipped_agents/colon_ppo/", "evertgym/shipped_agents/ubend_ppo/"))]
     assert {"evertgym_gymnasium_hook.py", "evertgym_gymnasium_hook.pth"} <= names
     py = _venv_seeing_this_environment(tmp_path / "venv")
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}  # a checkout on the path is not "installed"
@@ -128,7 +130,7 @@ def test_wheel_carries_the_data_and_runs_from_a_fresh_venv(tmp_path):
         env = gym.make("evertgym/Colon-v0")
         tuned = make_baseline("tuned")
         obs, info = env.reset(seed=0); tuned.reset(env); env.step(tuned.act(obs, info))
-        policy, env_id, kw = load_policy("colon_ppo")
+        policy, env_id, kw = load_policy("colon_ppo_operator")
         env = gym.make(env_id, **kw)
         obs, info = env.reset(seed=0); policy.reset(env); env.step(policy.act(obs, info))
         print("wheel ok", evertgym.__version__)

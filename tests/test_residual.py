@@ -49,7 +49,7 @@ def test_the_correction_is_scaled_and_the_action_clipped():
 
 
 @pytest.mark.parametrize("spec, field", [
-    ({"rule": "colon_ppo", "scale": 0.25}, "residual ="),          # a trained model is not a rule
+    ({"rule": "colon_ppo_operator", "scale": 0.25}, "residual ="),  # a trained model is not a rule
     ({"rule": "nosuch", "scale": 0.25}, "residual ="),
     ({"rule": "tuned", "scale": 0.0}, "residual_scale = 0.0"),
     ({"rule": "tuned", "scale": 3}, "residual_scale = 3"),

@@ -21,7 +21,7 @@ from evertgym.env import EversionEnv
 from evertgym.scenes import SceneSpec, make_scene
 
 ROOT = Path(__file__).resolve().parents[1]
-SHIPPED_ZIP = SHIPPED_DIR / "ubend_ppo" / "final.zip"
+SHIPPED_ZIP = SHIPPED_DIR / "ubend_ppo_operator" / "final.zip"
 
 
 # ---- model files are code -------------------------------------------------------------------
@@ -74,8 +74,8 @@ def test_a_crafted_pickle_beside_a_model_does_not_run_without_the_opt_in(tmp_pat
 def test_a_copy_of_a_shipped_policy_loads_without_the_opt_in(tmp_path):
     from evertgym.agents.policies import make_policy
 
-    shutil.copytree(SHIPPED_ZIP.parent, tmp_path / "ubend_ppo")
-    assert make_policy(str(tmp_path / "ubend_ppo" / "final.zip")).obs_rms is not None
+    shutil.copytree(SHIPPED_ZIP.parent, tmp_path / "ubend_ppo_operator")
+    assert make_policy(str(tmp_path / "ubend_ppo_operator" / "final.zip")).obs_rms is not None
 
 
 # ---- validation at every boundary ------------------------------------------------------------
@@ -254,7 +254,7 @@ def _cli_cases(tmp: Path) -> list[tuple[list[str], str]]:
         (["optimize", "--trials", "-1"], "--trials"),
         (["reproduce", "ubend", "--workers", "1000", "--db", str(tmp / "u.sqlite")], "--workers"),
         (["train", str(tmp / "nope.toml"), "--out", str(tmp)], "nope.toml"),
-        (["train", str(ROOT / "agents" / "ubend_ppo.toml"), "--out", str(tmp), "--seed", "-1"], "seed = -1"),
+        (["train", str(ROOT / "agents" / "ubend_ppo_operator.toml"), "--out", str(tmp), "--seed", "-1"], "seed = -1"),
     ]
 
 

@@ -32,7 +32,7 @@ from evertgym.scoring.spec import TrialSpec
 from evertgym.sim.config import SimConfig
 
 ROOT = Path(__file__).resolve().parents[1]
-SHIPPED = SHIPPED_DIR / "ubend_ppo"
+SHIPPED = SHIPPED_DIR / "ubend_ppo_operator"
 
 
 class _Payload:

@@ -26,9 +26,10 @@ def test_zoo_files_are_up_to_date_with_the_toml_configs():
 def test_zoo_entry_carries_every_hyperparameter_and_env_kwarg():
     from evertgym.agents.train import load_config
 
-    cfg = load_config(AGENTS / "colon_ppo.toml")
+    cfg = load_config(AGENTS / "colon_ppo_operator.toml")
     entry = zoo_hyperparams(cfg)
-    assert entry["env_kwargs"] == {"tip_sensing": True, "sim_config": {"engine": "dynamic"}} and entry["normalize"] is True
+    assert entry["env_kwargs"] == {"tip_sensing": False, "regulator_tau_s": [0.1, 0.6]} and entry["normalize"] is True
+    assert entry["n_timesteps"] == cfg["n_timesteps"] == 80000 and entry["n_envs"] == 2
     assert entry["n_steps"] == cfg["hyperparams"]["n_steps"] and entry["policy"] == "MlpPolicy"
     assert entry["policy_kwargs"] == {"net_arch": [64, 64]}
 
@@ -63,7 +64,7 @@ def test_rl_zoo3_trains_with_our_hyperparameters(tmp_path):
     run = tmp_path / "ppo" / "evertgym-UBend-v0_1"
     assert (run / "evertgym-UBend-v0.zip").is_file() and (run / "evertgym-UBend-v0" / "vecnormalize.pkl").is_file()
     used = dict(yaml.unsafe_load((run / "evertgym-UBend-v0" / "config.yml").read_text()))
-    # the env kwargs of the zoo file's entry, the engine the config pins among them
+    # the env kwargs of the zoo file's entry (agents/ubend_ppo_operator.toml's: no simulator setting, the default engine)
     entry = yaml.safe_load((AGENTS / "ppo.yml").read_text())["evertgym/UBend-v0"]
-    assert entry["env_kwargs"] == {"tip_sensing": True, "sim_config": {"engine": "dynamic"}}
+    assert entry["env_kwargs"] == {"tip_sensing": False, "regulator_tau_s": [0.1, 0.6]}
     assert used["n_steps"] == 512 and used["batch_size"] == 128 and used["env_kwargs"] == entry["env_kwargs"]

@@ -7,7 +7,7 @@ the training configs, the tuned heuristic's parameters and the small trained pol
     import evertgym
     from evertgym.agents import load_policy
 
-    policy, env_id, env_kwargs = load_policy("colon_ppo")
+    policy, env_id, env_kwargs = load_policy("colon_ppo_operator")
     env = gym.make(env_id, **env_kwargs)      # the observation the policy was trained on
     obs, info = env.reset(seed=0)
     policy.reset(env)
@@ -35,7 +35,7 @@ def load_policy(name_or_path: str | Path, deterministic: bool | None = None,
     """A trained policy with the env id and env kwargs it was trained with.
 
     ``name_or_path`` is a shipped policy's name (:func:`shipped_policies`, e.g.
-    ``"colon_ppo"``), a run folder or a ``.zip``.  Returns ``(policy, env_id, env_kwargs)``:
+    ``"colon_ppo_operator"``), a run folder or a ``.zip``.  Returns ``(policy, env_id, env_kwargs)``:
     ``gym.make(env_id, **env_kwargs)`` gives the observation the policy expects
     (:func:`~evertgym.agents.policies.model_meta`: the ``<stem>_env.json`` beside the model,
     or a checkpoint's run ``config.json``; ``env_id`` is None without either).  The policy

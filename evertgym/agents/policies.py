@@ -327,7 +327,7 @@ def policy_cards() -> list[dict]:
 
 
 def resolve_policy_path(name_or_path: str | Path) -> Path:
-    """``"colon_ppo"`` -> the shipped ``agents/colon_ppo/final.zip``; a run folder -> its
+    """``"colon_ppo_operator"`` -> the shipped ``agents/colon_ppo_operator/final.zip``; a run folder -> its
     ``final.zip``; a ``.zip`` path -> itself.  Raises ``ValueError`` naming the shipped ones."""
     p = Path(name_or_path)
     if p.suffix == ".zip" and p.is_file():
@@ -354,7 +354,7 @@ def make_policy(desc: dict | str, trust: bool = False) -> Policy:
     """``{"name": "constant", "pressure_kpa": 3}``, ``"operator"``, ``{"name": "agent", "path": ...,
     "deterministic": ...}`` or the path of a saved model, optionally with its action mode
     (``"model.zip:stochastic"``, ``"model.zip:deterministic"``), or a shipped policy by name
-    (``"colon_ppo"``).  A saved model loads only if it is a shipped policy or the caller sets
+    (``"colon_ppo_operator"``).  A saved model loads only if it is a shipped policy or the caller sets
     ``trust``; a description never carries trust (a ``"trust"`` field is refused: it is data,
     and whoever wrote it is not the person running the code)."""
     desc = policy_desc(desc)
@@ -364,7 +364,7 @@ def make_policy(desc: dict | str, trust: bool = False) -> Policy:
         return SB3Policy(desc["path"], desc.get("deterministic"), trust=trust)
     if name is None:
         raise ValueError("policy must have a name: constant, operator, cycle, deflate, tuned or agent")
-    if name in shipped_policies():  # a shipped trained policy by name, e.g. "colon_ppo"
+    if name in shipped_policies():  # a shipped trained policy by name, e.g. "colon_ppo_operator"
         return SB3Policy(resolve_policy_path(name), desc.get("deterministic"), trust=trust)
     if name not in BASELINES and name != "tuned":
         raise ValueError(f"unknown policy {name!r}: allowed a baseline {sorted(BASELINES) + ['tuned']}, "

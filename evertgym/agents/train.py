@@ -68,7 +68,7 @@ ROLLING_EPISODES = 100
 
 def resolve_config(name_or_path: str | Path) -> Path:
     """A training config's file: ``name_or_path`` itself when it is a file, else the shipped config of
-    that name (``"ubend_ppo"`` -> ``agents/ubend_ppo.toml``).  Raises ``ValueError`` naming the shipped ones."""
+    that name (``"ubend_ppo_operator"`` -> ``agents/ubend_ppo_operator.toml``).  Raises ``ValueError`` naming the shipped ones."""
     from evertgym.agents.tuned import shipped_dir
 
     path = Path(name_or_path)

@@ -1,6 +1,6 @@
 """rl-zoo3 hyperparameter files from our training configs (one source of truth).
 
-The TOML configs in ``agents/`` (``evertgym train agents/ubend_ppo.toml``) are the source;
+The TOML configs in ``agents/`` (``evertgym train agents/ubend_ppo_operator.toml``) are the source;
 ``agents/ppo.yml`` and ``agents/sac.yml`` are rl-zoo3's format of the same
 hyperparameters, keyed by env id, written by ``python -m evertgym.agents.zoo`` (a test
 checks they are up to date).  Train with rl-zoo3::

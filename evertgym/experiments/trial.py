@@ -9,7 +9,7 @@ robot's start), ``variation`` (the robot's and the trial's spread, :mod:`evertgy
 ``variation``) and ``sim`` (fields of :class:`~evertgym.sim.config.SimConfig` that override
 its defaults, e.g. ``{"mass_ratio": 0.1}``; absent: the defaults).  ``TrialSpec.policy`` names a policy: ``{"name": "constant",
 "pressure_kpa": 3}``, ``{"name": "operator", ...}``, ``{"name": "tuned"}`` or
-``{"name": "agent", "path": "agents/colon_ppo.zip"}``.
+``{"name": "agent", "path": "agents/colon_ppo_operator/final.zip"}``.
 
 A trial ends at the goal (success), at full length, at the time limit, or early once
 the robot has been stalled for ``give_up_s`` with the policy at its highest pressure
