@@ -69,21 +69,3 @@ def test_the_former_id_of_the_harder_variant_names_the_new_one():
     with pytest.raises(ValueError, match="renamed evertgym/TortuousHard-v0"):
         check_env_id("--env", "evertgym/Tortuous-v1")
 
-
-def test_ubend_v1_widens_the_radii_to_the_papers_and_keeps_the_rest_of_v0():
-    assert "evertgym/UBend-v1" in register_envs()
-    v0, v1 = preset_kwargs("evertgym/UBend-v0"), preset_kwargs("evertgym/UBend-v1")
-    assert v0["scene"]["params"] == {"radius_mm": {"uniform": [25.0, 40.0]}}
-    assert v1["scene"]["params"] == {"radius_mm": {"uniform": [20.0, 40.0]}}
-    assert "regulator_tau_s" not in v0 and v1["regulator_tau_s"] == (0.1, 0.6)
-    for key in ("design", "band_offset_mm", "control_hz", "max_episode_s", "history", "tip_sensing", "scene_ahead",
-                "progress_weight", "pressure_weight", "contact_weight", "stall_weight", "success_weight"):
-        assert v1[key] == v0[key], key
-    env = gym.make("evertgym/UBend-v1").unwrapped
-    radii, taus = [], []
-    for seed in range(20):
-        env.reset(seed=seed)
-        radii.append(env.scene.params["radius_mm"])
-        taus.append(env.sim.cfg.regulator_tau_s)
-    assert all(20.0 <= r <= 40.0 for r in radii) and min(radii) < 25.0  # v1 reaches the radii v0 never draws
-    assert all(0.1 <= t <= 0.6 for t in taus) and len(set(taus)) == len(taus)
