@@ -324,3 +324,20 @@ def test_the_package_imports_from_the_folder_that_holds_a_clone_named_evertgym(t
     import evertgym
 
     assert done.stdout.strip() == evertgym.__version__
+
+
+def test_optimize_passes_the_tube_and_the_trial_time_to_the_search(monkeypatch, capsys, tmp_path):
+    import evertgym.experiments.optimize as optimize
+
+    seen: dict = {}
+    rows = [{"design_name": name, "n": 2, "successes": 1, "success_rate": 0.5, "success_ci_lo": 0.0, "success_ci_hi": 1.0}
+            for name in ("best", "paper 3 x 10% / 50 mm", "no bands")]
+    out = {"best_params": {"n_bands": 1, "spacing_mm": 50.0, "reduction": 0.1, "last_band_mm": 300.0},
+           "best_design": {"tube": {}, "bands": [{"position_mm": 300.0, "reduction": 0.1}]}, "held_out": rows, "trials": 1, **_STUDY}
+    monkeypatch.setattr(optimize, "optimize_bands", lambda *a, **k: (seen.update(k), dict(out))[1])
+    stores = ["--study", str(tmp_path / "s.sqlite"), "--db", str(tmp_path / "o.sqlite")]
+    assert main(["optimize", "--scene", "colon_random", "--scene-params", "{}", "--diameter-mm", "20", "--length-mm", "800",
+                 "--max-s", "30", *stores]) == 0
+    assert (seen["diameter_mm"], seen["length_mm"], seen["max_s"]) == (20.0, 800.0, 30.0)
+    assert main(["optimize", *stores]) == 0  # the defaults: the paper's U-bend robot, 20 s trials
+    assert (seen["diameter_mm"], seen["length_mm"], seen["max_s"]) == (40.0, 900.0, 20.0)
