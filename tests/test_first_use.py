@@ -341,3 +341,16 @@ def test_optimize_passes_the_tube_and_the_trial_time_to_the_search(monkeypatch, 
     assert (seen["diameter_mm"], seen["length_mm"], seen["max_s"]) == (20.0, 800.0, 30.0)
     assert main(["optimize", *stores]) == 0  # the defaults: the paper's U-bend robot, 20 s trials
     assert (seen["diameter_mm"], seen["length_mm"], seen["max_s"]) == (40.0, 900.0, 20.0)
+
+
+@pytest.mark.parametrize("diameter_mm, length_mm", [(40.0, 900.0), (20.0, 800.0), (40.0, 1500.0)])
+def test_every_design_the_search_draws_keeps_its_bands_on_the_body_under_the_jitter(diameter_mm, length_mm):
+    """A band 23 mm from the base, which the +/- 25 mm jitter moved off the body, stopped a tortuous search."""
+    from evertgym.env import EversionEnv
+    from evertgym.experiments.optimize import BAND_JITTER_MM, MIN_BAND_MM, band_design
+
+    for n, spacing, last in ((2, 100.0, 123.0), (6, 100.0, 150.0), (6, 20.0, 150.0), (6, 100.0, 500.0), (1, 20.0, 150.0)):
+        design = band_design(n, spacing, 0.5, last, diameter_mm, length_mm)
+        assert all(b["position_mm"] > MIN_BAND_MM for b in design["bands"])
+        EversionEnv(scene={"family": "straight", "params": {}}, design=design, band_offset_mm=(-BAND_JITTER_MM, BAND_JITTER_MM))
+    assert [b["position_mm"] for b in band_design(2, 100.0, 0.1, 123.0, 40.0, 900.0)["bands"]] == [123.0]

@@ -32,6 +32,10 @@ HELD_OUT_FIRST_SEED = 10_000
 #: Names of the two reference designs scored beside the best on the held-out scenes.
 PAPER_NAME = "paper 3 x 10% / 50 mm"
 BARE_NAME = "no bands"
+#: Every trial shifts all bands by U(-BAND_JITTER_MM, BAND_JITTER_MM) mm (the paper's randomised band positions).
+BAND_JITTER_MM = 25.0
+#: Closest a band of a searched design may sit to the base (mm), before the jitter: the strip stays on the body.
+MIN_BAND_MM = 10.0 + BAND_JITTER_MM
 #: Success-rate points a design loses per band: the tie-break towards fewer bands.
 BAND_PENALTY = 0.001
 #: The objective in words, printed by ``evertgym optimize``.
@@ -40,9 +44,10 @@ OBJECTIVE = (f"objective: success rate on the training scenes minus {BAND_PENALT
 
 
 def band_design(n_bands: int, spacing_mm: float, reduction: float, last_band_mm: float, diameter_mm: float, length_mm: float) -> dict:
-    """Bands ``spacing_mm`` apart ending at ``last_band_mm`` from the base."""
+    """Bands ``spacing_mm`` apart ending at ``last_band_mm`` from the base; a band closer than
+    :data:`MIN_BAND_MM` to the base is left out (the trial's jitter would move it off the body)."""
     positions = [last_band_mm - k * spacing_mm for k in range(n_bands)]
-    bands = [{"position_mm": p, "reduction": reduction} for p in sorted(positions) if p > 10.0]
+    bands = [{"position_mm": p, "reduction": reduction} for p in sorted(positions) if p > MIN_BAND_MM]
     return {"tube": {"diameter_mm": diameter_mm, "wall_thickness_mm": 0.05, "length_mm": length_mm}, "bands": bands}
 
 
@@ -84,7 +89,8 @@ def optimize_bands(
     if not (0 < budget_kpa <= 8.0):
         raise ValueError(f"budget_kpa = {budget_kpa!r} is out of range: allowed (0, 8] kPa")
     pol = {"name": "constant", "pressure_kpa": budget_kpa} if policy == "constant" else {"name": "operator", "max_kpa": budget_kpa}
-    episode = with_engine({"max_s": float(max_s), "band_offset_mm": [-25.0, 25.0], "entry_offset_mm": [-5.0, 5.0], "sim": dict(sim or {})})
+    episode = with_engine({"max_s": float(max_s), "band_offset_mm": [-BAND_JITTER_MM, BAND_JITTER_MM], "entry_offset_mm": [-5.0, 5.0],
+                           "sim": dict(sim or {})})
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     if Path(study_path).resolve() == Path(store_path).resolve():
         raise ValueError(f"study_path and store_path are the same file ({study_path}): allowed two files")
