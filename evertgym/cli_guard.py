@@ -351,7 +351,7 @@ def check_optimize_flags(args: argparse.Namespace, params: Any = None, sim: dict
     ``--sim`` settings (the paper's design built in the scene, as every trial will be), the study
     and the store, before the study starts (nothing is written to either on a refusal)."""
     from evertgym.env import EversionEnv
-    from evertgym.experiments.optimize import band_design
+    from evertgym.experiments.optimize import BAND_JITTER_MM, band_design
 
     for flag, v, hi in (("--trials", args.trials, 10_000), ("--scenes", args.scenes, 1000),
                         ("--trials-per-scene", args.trials_per_scene, 1000), ("--held-out", args.held_out, 1000)):
@@ -367,7 +367,7 @@ def check_optimize_flags(args: argparse.Namespace, params: Any = None, sim: dict
         for n in (3, 0):
             EversionEnv(scene={"family": args.scene, "params": {} if params is None else params},
                         design=band_design(n, 50.0, 0.1, 300.0, args.diameter_mm, args.length_mm), max_episode_s=args.max_s,
-                        band_offset_mm=(-25.0, 25.0), entry_offset_mm=(-5.0, 5.0), sim_config=sim or None)
+                        band_offset_mm=(-BAND_JITTER_MM, BAND_JITTER_MM), entry_offset_mm=(-5.0, 5.0), sim_config=sim or None)
     except ValueError as e:
         raise ValueError(f"--scene {args.scene!r} with --scene-params {json.dumps(params)[:80]}: {e}") from None
     study, db = check_output_file("--study", args.study), check_output_file("--db", args.db)

@@ -354,3 +354,8 @@ def test_every_design_the_search_draws_keeps_its_bands_on_the_body_under_the_jit
         assert all(b["position_mm"] > MIN_BAND_MM for b in design["bands"])
         EversionEnv(scene={"family": "straight", "params": {}}, design=design, band_offset_mm=(-BAND_JITTER_MM, BAND_JITTER_MM))
     assert [b["position_mm"] for b in band_design(2, 100.0, 0.1, 123.0, 40.0, 900.0)["bands"]] == [123.0]
+    # a short robot: bands the search places past its tip's reach are left out too
+    short = band_design(3, 50.0, 0.1, 500.0, 40.0, 300.0)
+    assert short["bands"] == []
+    EversionEnv(scene={"family": "straight", "params": {}}, design=band_design(3, 50.0, 0.1, 250.0, 40.0, 300.0),
+                band_offset_mm=(-BAND_JITTER_MM, BAND_JITTER_MM))

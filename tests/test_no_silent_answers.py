@@ -130,18 +130,10 @@ def test_eval_and_rollout_refuse_another_engine_in_one_line_naming_the_flag(dyna
     assert not (tmp_path / "x.gif").exists()
 
 
-def test_a_checkpoint_whose_metadata_names_the_dynamic_engine_runs_there(tmp_path, capsys):
-    pytest.importorskip("stable_baselines3")
-    import shutil
-
+def test_a_checkpoint_whose_metadata_names_the_dynamic_engine_runs_there(dynamic_model, capsys):
     from evertgym.agents.policies import on_trained_engine
-    from evertgym.agents.tuned import shipped_dir
 
-    run = tmp_path / "run"
-    shutil.copytree(shipped_dir() / "ubend_ppo_operator", run)
-    meta = json.loads((run / "final_env.json").read_text())
-    (run / "final_env.json").write_text(json.dumps({**meta, "engine": "dynamic"}))  # the engine beside the sim_config's solver
-    model = str(run / "final.zip")
+    model = dynamic_model
     assert on_trained_engine([model, "operator"], {}) == {"sim_config": {"engine": "dynamic"}}
     assert on_trained_engine([model], {"regulator_tau_s": 0.2}) == {"regulator_tau_s": 0.2, "sim_config": {"engine": "dynamic"}}
     assert on_trained_engine(["operator"], {}) == {}  # baselines run on what they are given

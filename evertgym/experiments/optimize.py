@@ -34,7 +34,7 @@ PAPER_NAME = "paper 3 x 10% / 50 mm"
 BARE_NAME = "no bands"
 #: Every trial shifts all bands by U(-BAND_JITTER_MM, BAND_JITTER_MM) mm (the paper's randomised band positions).
 BAND_JITTER_MM = 25.0
-#: Closest a band of a searched design may sit to the base (mm), before the jitter: the strip stays on the body.
+#: Closest a band of a searched design may sit to either end of the body (mm), before the jitter: the strip stays on it.
 MIN_BAND_MM = 10.0 + BAND_JITTER_MM
 #: Success-rate points a design loses per band: the tie-break towards fewer bands.
 BAND_PENALTY = 0.001
@@ -45,9 +45,9 @@ OBJECTIVE = (f"objective: success rate on the training scenes minus {BAND_PENALT
 
 def band_design(n_bands: int, spacing_mm: float, reduction: float, last_band_mm: float, diameter_mm: float, length_mm: float) -> dict:
     """Bands ``spacing_mm`` apart ending at ``last_band_mm`` from the base; a band closer than
-    :data:`MIN_BAND_MM` to the base is left out (the trial's jitter would move it off the body)."""
+    :data:`MIN_BAND_MM` to either end of the body is left out (the trial's jitter would move it off)."""
     positions = [last_band_mm - k * spacing_mm for k in range(n_bands)]
-    bands = [{"position_mm": p, "reduction": reduction} for p in sorted(positions) if p > MIN_BAND_MM]
+    bands = [{"position_mm": p, "reduction": reduction} for p in sorted(positions) if MIN_BAND_MM < p < length_mm - MIN_BAND_MM]
     return {"tube": {"diameter_mm": diameter_mm, "wall_thickness_mm": 0.05, "length_mm": length_mm}, "bands": bands}
 
 
