@@ -334,6 +334,26 @@ def test_eval_store_identity_names_the_engine_and_a_model_file():
     assert engine_of({"sim_config": SimConfig(engine="dynamic")}) == "dynamic"  # an env takes a SimConfig too
 
 
+def test_a_retuned_operator_is_played_again_not_read_back_from_the_store(tmp_path, monkeypatch):
+    import evertgym.agents.evaluate as ev
+    from evertgym.agents.tuned import tuned_path
+
+    shipped = json.loads(tuned_path("evertgym/UBend-v0").read_text())
+    tuned = tmp_path / "tuned.json"
+    tuned.write_text(json.dumps(shipped))
+    db, kw, desc = tmp_path / "eval.sqlite", {"max_episode_s": 1.0}, {"name": "tuned", "path": str(tuned)}
+    evaluate([desc], "evertgym/UBend-v0", 1, env_kwargs=kw, db=db)
+    played: list[int] = []
+    real = ev.episode_trial
+    monkeypatch.setattr(ev, "episode_trial", lambda spec: played.append(spec.seed) or real(spec))
+    evaluate([desc], "evertgym/UBend-v0", 1, env_kwargs=kw, db=db)
+    assert played == []  # the same parameters: read back
+    shipped["best"]["params"]["start_kpa"] += 1.0
+    tuned.write_text(json.dumps(shipped))
+    evaluate([desc], "evertgym/UBend-v0", 1, env_kwargs=kw, db=db)
+    assert played == [HELD_OUT_SEED_BASE]  # other parameters under the same name: played again
+
+
 def _tiny_config(tmp_path: Path, n_timesteps: int = 512, name: str = "tiny_ppo") -> Path:
     cfg = tmp_path / f"{name}.toml"
     # 1 s episodes (10 steps): dozens of resets, so each side of a stop draws many scenes

@@ -26,6 +26,7 @@ from evertgym.agents.policies import (
     shipped_policies,
 )
 from evertgym.agents.trust import sha256_of
+from evertgym.agents.tuned import tuned_file
 from evertgym.env.eversion_env import HELD_OUT_SEED_BASE, engine_of
 from evertgym.limits import MAX_EPISODES
 from evertgym.scoring.backends import process_backend, serial_backend
@@ -82,7 +83,8 @@ def _bend_columns(infos: list[dict]) -> dict:
 
 def _identities(descs: list[dict], env_kwargs: dict | None) -> list[dict]:
     """What makes a stored episode reusable beyond its spec: the engine it runs on (the default's
-    when ``env_kwargs`` do not name one) and, for a trained model, its file's SHA-256."""
+    when ``env_kwargs`` do not name one), for a trained model its file's SHA-256, and for ``tuned``
+    the parameters its file holds (so a retuned operator is played again, not read back)."""
     engine = engine_of(env_kwargs or {})
     out = []
     for d in descs:
@@ -90,6 +92,8 @@ def _identities(descs: list[dict], env_kwargs: dict | None) -> list[dict]:
         name = d.get("name")
         if name == "agent" or name in shipped_policies():
             ident["model_sha256"] = sha256_of(resolve_policy_path(d["path"] if name == "agent" else name))
+        elif name == "tuned":
+            ident["tuned_params"] = tuned_file(d.get("path"), d.get("env_id"))["best"]["params"]
         out.append(ident)
     return out
 

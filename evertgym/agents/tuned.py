@@ -64,11 +64,8 @@ def tuned_envs() -> list[str]:
     return sorted(envs)
 
 
-def load_tuned(path: str | Path | None = None, env_id: str | None = None) -> OperatorProtocol:
-    """The operator protocol with the parameters tuned on ``env_id`` (its :func:`tuned_path`),
-    or those of an explicit ``path``; with neither, the shipped ``tuned_operator.json``
-    (tuned on UBend-v0, the default before per-env files).  A file tuned on another env
-    than ``env_id`` is refused."""
+def tuned_file(path: str | Path | None = None, env_id: str | None = None) -> dict:
+    """The tuned-parameter file :func:`load_tuned` reads (same arguments), as a dict."""
     if path:
         p = Path(path)
     elif env_id is not None:
@@ -83,6 +80,15 @@ def load_tuned(path: str | Path | None = None, env_id: str | None = None) -> Ope
     data = json.loads(p.read_text())
     if env_id is not None and data.get("env") != env_id:
         raise ValueError(f"tuned: {str(p)!r} was tuned on env {data.get('env')!r}, not env_id = {env_id!r}")
+    return dict(data)
+
+
+def load_tuned(path: str | Path | None = None, env_id: str | None = None) -> OperatorProtocol:
+    """The operator protocol with the parameters tuned on ``env_id`` (its :func:`tuned_path`),
+    or those of an explicit ``path``; with neither, the shipped ``tuned_operator.json``
+    (tuned on UBend-v0, the default before per-env files).  A file tuned on another env
+    than ``env_id`` is refused."""
+    data = tuned_file(path, env_id)
     policy = OperatorProtocol(**data["best"]["params"])
     policy.name = "tuned"
     policy.tuned_on = str(data.get("env"))  # type: ignore[attr-defined]
