@@ -104,3 +104,23 @@ def test_successes_are_compared_by_the_exact_mcnemar_test(tmp_path):
             "exact McNemar p = 0.0039") in done.stdout
     done = _run("--a", f"{db}:B", "--b", f"{db}:A", "--episodes", "12")
     assert "passed by the first only 0, by the second only 9, exact McNemar p = 0.0039" in done.stdout
+
+
+def test_a_label_played_by_two_versions_of_its_policy_is_refused_in_one_line(tmp_path):
+    """A store that holds a retuned operator's (or a retrained model's) episodes beside the old ones under one label
+    would pair a mix of both: refused, naming the label."""
+    db = tmp_path / "mixed.sqlite"
+    with ResultStore(db) as store:
+        for group, start_kpa, seeds in [("tuned", 1.0, range(3)), ("tuned", 2.0, range(3, 5)), ("B", None, range(5))]:
+            for i in seeds:
+                ident = {} if start_kpa is None else {"tuned_params": {"start_kpa": start_kpa}}
+                spec = TrialSpec(design={}, design_name="evertgym/UBend-v0",
+                                 scene={"family": "evertgym/UBend-v0", "params": KW, "seed": SEED + i, **ident},
+                                 policy={"name": group}, seed=SEED + i, index=i, group=group)
+                store.add(spec, {"success": True, "time_s": 1.0, "peak_pressure_kpa": 1.0,
+                                 "max_contact_force_n": 1.0, "stall_position_mm": None})
+    done = _run("--a", f"{db}:tuned", "--b", f"{db}:B", "--episodes", "5")
+    assert done.returncode == 2 and "Traceback" not in done.stderr and done.stderr.strip().count("\n") == 0
+    assert "'tuned'" in done.stderr and "2 versions" in done.stderr
+    done = _run("--a", f"{db}:B", "--b", f"{db}:B", "--episodes", "5")  # one version: pairs
+    assert done.returncode == 0, done.stderr

@@ -45,14 +45,22 @@ def parse_env_kwargs(flag: str, text: str | None, env_id: str) -> dict:
 def held_out_episodes(db: str | Path, env_id: str, episodes: int, env_kwargs: dict,
                       group: str | None = None) -> dict[str, dict[int, dict]]:
     """Per policy label (only ``group`` if given): its first ``episodes`` held-out episodes of ``env_id`` played with
-    exactly ``env_kwargs``, as {seed: trial result}."""
+    exactly ``env_kwargs``, as {seed: trial result}.  A label whose episodes were played by two versions of the
+    policy (another engine, model file or tuned parameters) raises a one-line ValueError: they are not one policy."""
     seeds = list(range(HELD_OUT_SEED_BASE, HELD_OUT_SEED_BASE + episodes))
     where: dict = {"seed": seeds} if group is None else {"seed": seeds, "group": group}
     out: dict[str, dict[int, dict]] = {}
+    versions: dict[str, set[str]] = {}
     with ResultStore(db) as store:
         for r in store.results(**where):
             if r.spec.scene["family"] == env_id and r.spec.scene["params"] == env_kwargs:
                 out.setdefault(r.spec.group, {})[r.spec.seed] = r.result
+                version = {k: v for k, v in r.spec.scene.items() if k not in ("seed", "params", "family")}
+                versions.setdefault(r.spec.group, set()).add(json.dumps(version, sort_keys=True))
+    for label, found in versions.items():
+        if len(found) > 1:
+            raise ValueError(f"store {str(db)!r} holds episodes of {label!r} from {len(found)} versions of it "
+                             f"({'; '.join(sorted(found))}): allowed one; evaluate each version into its own store (--db)")
     return out
 
 
