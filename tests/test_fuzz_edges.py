@@ -9,7 +9,7 @@ import string
 from pathlib import Path
 
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from evertgym.cli import CLIError, _sim_overrides
@@ -34,6 +34,7 @@ FAST = settings(max_examples=300, deadline=None, suppress_health_check=[HealthCh
 
 @FAST
 @given(SIM_TEXT)
+@example(json.dumps({"\n": None}))  # a field name with a newline once broke the one line
 def test_fuzz_sim_text_is_an_object_of_typed_settings_or_one_line(text):
     try:
         sim = _sim_overrides(text)

@@ -321,7 +321,8 @@ def parse_sim(text: str | None, extra: dict | None = None, *, engine: str | None
         if name not in _DEFAULTS:
             near = difflib.get_close_matches(name, list(_DEFAULTS), n=1)
             hint = f" (did you mean {near[0]!r}?)" if near else ""
-            raise ValueError(f"{name!s:.60} = {value!r:.40} is not a SimConfig field{hint}: allowed the fields of SimConfig "
+            shown = name if name.isprintable() else repr(name)  # (a newline in a key would break the one line)
+            raise ValueError(f"{shown:.60} = {value!r:.40} is not a SimConfig field{hint}: allowed the fields of SimConfig "
                              "(evertgym.sim.config, docs/sim.md)")
     if engine is not None:
         if engine not in ENGINES:
