@@ -80,7 +80,7 @@ def tuned_file(path: str | Path | None = None, env_id: str | None = None) -> dic
     data = json.loads(p.read_text())
     if env_id is not None and data.get("env") != env_id:
         raise ValueError(f"tuned: {str(p)!r} was tuned on env {data.get('env')!r}, not env_id = {env_id!r}")
-    return dict(data)
+    return data
 
 
 def load_tuned(path: str | Path | None = None, env_id: str | None = None) -> OperatorProtocol:
