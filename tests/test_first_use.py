@@ -188,7 +188,7 @@ def test_policies_lists_every_shipped_policy_with_env_observations_config_and_he
 
     assert main(["policies"]) == 0
     out = capsys.readouterr().out
-    assert "158/200 [0.73, 0.84]" in out  # tortuous_ppo_operator, docs/results/tortuous_operator_qs_eval.json
+    assert "186/200 [0.89, 0.96]" in out  # tortuous_residual_operator, docs/results/tortuous_residual_operator_eval.json
     for name in shipped_policies():
         assert f"agents/{name}.toml" in out
     assert main(["policies", "--json"]) == 0

@@ -17,8 +17,8 @@ from evertgym.agents.tuned import shipped_dir
 pytest.importorskip("stable_baselines3")
 
 #: What agents/ ships, written out (not globbed) so that a policy added or lost shows here.
-SHIPPED = ["colon_ppo_operator", "colon_residual_operator", "tortuous_ppo_operator", "tortuous_residual_operator",
-           "tortuous_v1_residual_operator", "ubend_ppo_operator", "ubend_residual_operator"]
+SHIPPED = ["colon_ppo_operator", "colon_residual_operator", "tortuous_residual_operator", "tortuous_v1_residual_operator",
+           "ubend_ppo_operator", "ubend_residual_operator"]
 
 
 def test_shipped_policy_loads_with_its_env_and_accepts_that_env_for_fine_tuning():
@@ -125,7 +125,7 @@ def test_a_retired_policy_is_neither_shipped_nor_trusted_and_its_config_trains_b
     from evertgym.agents.trust import trusted_hashes
 
     tries = Path(__file__).resolve().parents[1] / "agents" / "tries"  # a checkout's: tries are not installed
-    for name in ("colon_ppo", "ubend_ppo"):
+    for name in ("colon_ppo", "ubend_ppo", "tortuous_ppo_operator"):
         assert name not in shipped_policies() and not (shipped_dir() / name).exists()
         with pytest.raises(ValueError, match="nor a shipped policy"):
             load_policy(name)
@@ -139,10 +139,10 @@ def test_a_retired_policy_is_neither_shipped_nor_trusted_and_its_config_trains_b
 
 def test_compare_runs_tells_identical_policies_from_different_ones(capsys, tmp_path):
     import evertgym.agents.compare as mod  # evertgym compare-runs
-    ubend, tortuous = shipped_dir() / "ubend_ppo_operator", shipped_dir() / "tortuous_ppo_operator"
+    ubend, colon = shipped_dir() / "ubend_ppo_operator", shipped_dir() / "colon_ppo_operator"
     assert mod.main(str(ubend), str(ubend)) == 0
     assert "largest difference 0 (identical)" in capsys.readouterr().out
-    assert mod.main(str(ubend), str(tortuous)) == 1
+    assert mod.main(str(ubend), str(colon)) == 1
     assert "(different)" in capsys.readouterr().out
     assert mod.main(str(ubend), str(ubend / "nowhere")) == 2
     assert "has no model file" in capsys.readouterr().err
