@@ -206,7 +206,7 @@ def test_policies_lists_every_shipped_policy_with_env_observations_config_and_he
     residual = {r["name"]: r["residual"] for r in rows}
     assert residual["colon_residual_operator"] == {"rule": "cycle:low_kpa=0,high_kpa=3,period_s=1", "scale": 0.25}
     assert residual["tortuous_residual_operator"] == {"rule": "cycle", "scale": 0.25}
-    assert residual["tortuous_v1_residual_operator"] == {"rule": "cycle:low_kpa=2,high_kpa=8,period_s=2", "scale": 0.5}
+    assert residual["tortuous_v1_residual_operator"] == {"rule": "cycle", "scale": 0.25}
     assert residual["ubend_residual_operator"]["scale"] == 0.05
     assert residual["colon_ppo_operator"] is None
     assert "correcting\n      cycle:low_kpa=0,high_kpa=3,period_s=1 by at most 1 kPa" in out
