@@ -142,7 +142,8 @@ def describe_default(default: dict, rows_by_label: dict[str, dict] | None = None
                  f"{now['colon_peak_force_n']:.1f} N with the current default and {ref['colon_peak_force_n']:.1f} N "
                  f"with the reference (`colon_N`), and the U-bend outcome disagreement is "
                  f"{chosen['ubend_disagreement']:.2f} against {now['ubend_disagreement']:.2f}. The shipped policies, "
-                 "the U-bend friction fit and every reproduced table were made with the current default.")
+                 "the bend model's fit and every reproduced table are the quasi-static engine's "
+                 "(docs/quasistatic.md), not this engine's.")
     return text
 
 
@@ -157,7 +158,8 @@ def markdown(result: dict, lines: list[str], skip_lines: list[str]) -> str:
         "",
         f"Regenerate (about 4.5 minutes on a 2-core machine; `--quick`, about 30 s, for a smaller sweep): `{COMMAND}`",
         "",
-        f"Measured {meta['date']} in {meta['elapsed_s']:.0f} s, {'quick' if result['quick'] else 'full'} sweep; "
+        f"Measured {meta['date']} in {meta['elapsed_s']:.0f} s on build {meta['versions'].get('git_commit', 'unknown')}, "
+        f"{'quick' if result['quick'] else 'full'} sweep; "
         f"{meta['versions']['machine']}, Python {meta['versions']['python']}, numpy {meta['versions']['numpy']}, "
         f"pymunk {meta['versions']['pymunk']}. "
         "Wall times depend on the machine: compare rows of one run only.",
