@@ -158,7 +158,7 @@ def markdown(result: dict, lines: list[str], skip_lines: list[str]) -> str:
         "",
         f"Regenerate (about 4.5 minutes on a 2-core machine; `--quick`, about 30 s, for a smaller sweep): `{COMMAND}`",
         "",
-        f"Measured {meta['date']} in {meta['elapsed_s']:.0f} s on build {meta['versions'].get('git_commit', 'unknown')}, "
+        f"Measured {meta['date']} in {meta['elapsed_s']:.0f} s on build {meta['versions']['git_commit']}, "
         f"{'quick' if result['quick'] else 'full'} sweep; "
         f"{meta['versions']['machine']}, Python {meta['versions']['python']}, numpy {meta['versions']['numpy']}, "
         f"pymunk {meta['versions']['pymunk']}. "
