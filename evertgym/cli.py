@@ -822,7 +822,7 @@ def cmd_paired(args: argparse.Namespace) -> int:
     from evertgym.agents.stored import paired_difference, parse_env_kwargs
 
     env_kwargs = parse_env_kwargs("--env-kwargs", args.env_kwargs, args.env)
-    print("\n".join(paired_difference(args.env, args.a, args.b, args.key, args.episodes, env_kwargs)))
+    print("\n".join(paired_difference(args.env, args.a, args.b, args.key, args.episodes, env_kwargs, args.validation)))
     return 0
 
 
@@ -1169,6 +1169,8 @@ def build_parser() -> argparse.ArgumentParser:
     pa.add_argument("--b", required=True, metavar="STORE:POLICY", help="the second policy's store and name")
     pa.add_argument("--key", default="max_contact_force_n", help="the per-episode figure")
     pa.add_argument("--episodes", type=int, default=200, help="held-out episodes to pair (seeds 1e9 + i)")
+    pa.add_argument("--validation", action="store_true",
+                    help="pair the validation episodes (eval --validation, seeds 2e9 + i) instead of the held-out ones")
     pa.add_argument("--env-kwargs", default=None, metavar="JSON",
                     help='the env kwargs the episodes were played with (default {"regulator_tau_s": [0.1, 0.6]}, or {} for '
                          'an id whose preset draws the lag itself); an outcome check\'s replay adds e.g. '

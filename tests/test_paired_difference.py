@@ -124,3 +124,25 @@ def test_a_label_played_by_two_versions_of_its_policy_is_refused_in_one_line(tmp
     assert "'tuned'" in done.stderr and "2 versions" in done.stderr
     done = _run("--a", f"{db}:B", "--b", f"{db}:B", "--episodes", "5")  # one version: pairs
     assert done.returncode == 0, done.stderr
+
+
+def test_validation_pairs_the_validation_episodes_only(tmp_path):
+    """A store holding both held-out (1e9 + i) and validation (2e9 + i) episodes: ``--validation`` pairs the
+    validation ones (B 0.3 N lower there, 0.1 N on held-out), the default the held-out ones."""
+    db = tmp_path / "s.sqlite"
+    with ResultStore(db) as store:
+        for base, gap in [(SEED, 0.1), (2 * SEED, 0.3)]:
+            for group, force in [("A", 1.0), ("B", 1.0 - gap)]:
+                for i in range(3):
+                    spec = TrialSpec(design={}, design_name="evertgym/UBend-v0",
+                                     scene={"family": "evertgym/UBend-v0", "params": KW, "seed": base + i},
+                                     policy={"name": group}, seed=base + i, index=i, group=group)
+                    store.add(spec, {"success": True, "time_s": 1.0, "peak_pressure_kpa": 1.0,
+                                     "max_contact_force_n": force + 0.001 * i * (group == "B"), "stall_position_mm": None})
+    held = _run("--a", f"{db}:A", "--b", f"{db}:B", "--episodes", "3")
+    val = _run("--a", f"{db}:A", "--b", f"{db}:B", "--episodes", "3", "--validation")
+    assert held.returncode == 0 and val.returncode == 0, held.stderr + val.stderr
+    assert "3 episodes in both" in held.stdout and "second - first: -0.0990" in held.stdout
+    assert "3 episodes in both" in val.stdout and "second - first: -0.2990" in val.stdout
+    none = _run("--a", f"{db}:A", "--b", f"{db}:B", "--episodes", "3", "--validation", "--env-kwargs", "{}")
+    assert none.returncode == 2 and "only 0 episodes in both stores" in none.stderr and "(validation episodes)" in none.stderr

@@ -11,7 +11,7 @@ import json
 from pathlib import Path
 
 from evertgym.env import preset_kwargs
-from evertgym.env.eversion_env import HELD_OUT_SEED_BASE
+from evertgym.env.eversion_env import HELD_OUT_SEED_BASE, VALIDATION_SEED_BASE
 from evertgym.scoring.store import ResultStore
 
 #: the randomised regulator lag (s) the shipped policies were evaluated under
@@ -43,11 +43,12 @@ def parse_env_kwargs(flag: str, text: str | None, env_id: str) -> dict:
 
 
 def held_out_episodes(db: str | Path, env_id: str, episodes: int, env_kwargs: dict,
-                      group: str | None = None) -> dict[str, dict[int, dict]]:
+                      group: str | None = None, seed_base: int = HELD_OUT_SEED_BASE) -> dict[str, dict[int, dict]]:
     """Per policy label (only ``group`` if given): its first ``episodes`` held-out episodes of ``env_id`` played with
-    exactly ``env_kwargs``, as {seed: trial result}.  A label whose episodes were played by two versions of the
+    exactly ``env_kwargs``, as {seed: trial result}; ``seed_base`` :data:`VALIDATION_SEED_BASE` reads the
+    validation episodes (``evertgym eval --validation``) instead.  A label whose episodes were played by two versions of the
     policy (another engine, model file or tuned parameters) raises a one-line ValueError: they are not one policy."""
-    seeds = list(range(HELD_OUT_SEED_BASE, HELD_OUT_SEED_BASE + episodes))
+    seeds = list(range(seed_base, seed_base + episodes))
     where: dict = {"seed": seeds} if group is None else {"seed": seeds, "group": group}
     out: dict[str, dict[int, dict]] = {}
     versions: dict[str, set[str]] = {}
@@ -64,19 +65,20 @@ def held_out_episodes(db: str | Path, env_id: str, episodes: int, env_kwargs: di
     return out
 
 
-def policy_episodes(flag: str, spec: str, env_id: str, episodes: int, env_kwargs: dict) -> tuple[str, str, dict[int, dict]]:
+def policy_episodes(flag: str, spec: str, env_id: str, episodes: int, env_kwargs: dict,
+                    seed_base: int = HELD_OUT_SEED_BASE) -> tuple[str, str, dict[int, dict]]:
     """``STORE:POLICY`` (a flag's value) split into the store and the policy's label, with that policy's held-out
     episodes (:func:`held_out_episodes`).  A ValueError of one line names the flag when the label is missing."""
     db, _, group = spec.partition(":")
     if not group:
         raise ValueError(f"{flag} = {spec!r}: expected STORE:POLICY (the policy's label in the store)")
-    return db, group, held_out_episodes(db, env_id, episodes, env_kwargs, group=group).get(group, {})
+    return db, group, held_out_episodes(db, env_id, episodes, env_kwargs, group=group, seed_base=seed_base).get(group, {})
 
 
 def paired_difference(env_id: str, first: str, second: str, key: str = "max_contact_force_n", episodes: int = 200,
-                      env_kwargs: dict | None = None) -> list[str]:
-    """Two policies on the same held-out episodes, read from evaluation stores (``STORE:POLICY`` each, as
-    :func:`policy_episodes` takes them): over the episodes both have, the two means of the per-episode
+                      env_kwargs: dict | None = None, validation: bool = False) -> list[str]:
+    """Two policies on the same held-out episodes (the validation episodes with ``validation``), read from
+    evaluation stores (``STORE:POLICY`` each, as :func:`policy_episodes` takes them): over the episodes both have, the two means of the per-episode
     figure ``key``, the mean difference (second minus first) with its normal 95% interval, the Wilcoxon
     signed-rank p-value and in how many episodes the second is lower; then both successes with the exact
     McNemar test on the discordant episodes.  Returns the printed lines; a one-line ``ValueError`` for
@@ -87,11 +89,13 @@ def paired_difference(env_id: str, first: str, second: str, key: str = "max_cont
     from scipy import stats
 
     kwargs = default_env_kwargs(env_id) if env_kwargs is None else env_kwargs
-    ra = policy_episodes("--a", first, env_id, episodes, kwargs)[2]
-    rb = policy_episodes("--b", second, env_id, episodes, kwargs)[2]
+    base = VALIDATION_SEED_BASE if validation else HELD_OUT_SEED_BASE
+    ra = policy_episodes("--a", first, env_id, episodes, kwargs, base)[2]
+    rb = policy_episodes("--b", second, env_id, episodes, kwargs, base)[2]
     seeds = sorted(set(ra) & set(rb))
     if len(seeds) < 2:
-        raise ValueError(f"only {len(seeds)} episodes in both stores for {env_id} with env kwargs {json.dumps(kwargs)}")
+        which = " (validation episodes)" if validation else ""
+        raise ValueError(f"only {len(seeds)} episodes in both stores for {env_id} with env kwargs {json.dumps(kwargs)}{which}")
     a = {s: float(ra[s][key]) for s in seeds}
     b = {s: float(rb[s][key]) for s in seeds}
     d = np.array([b[s] - a[s] for s in seeds])
