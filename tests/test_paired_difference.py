@@ -20,16 +20,21 @@ REPLAY = {**KW, "sim_config": {"solver_tolerance": 0.0001}}
 SEED = 1_000_000_000
 
 
+def _add(store: ResultStore, group: str, params: dict, base: int, episodes: int, force: float) -> None:
+    """``episodes`` passed UBend-v0 episodes of ``group`` from seed ``base`` up, at ``force`` N (B's rising 1 mN each)."""
+    for i in range(episodes):
+        spec = TrialSpec(design={}, design_name="evertgym/UBend-v0",
+                         scene={"family": "evertgym/UBend-v0", "params": params, "seed": base + i},
+                         policy={"name": group}, seed=base + i, index=i, group=group)
+        store.add(spec, {"success": True, "time_s": 1.0, "peak_pressure_kpa": 1.0,
+                         "max_contact_force_n": force + 0.001 * i * (group == "B"), "stall_position_mm": None})
+
+
 def _store(path: Path) -> None:
     """Policy A at 1.0 N in every episode; B at 0.9 N under the default kwargs and 1.1 N in the replays."""
     with ResultStore(path) as store:
         for group, params, force in [("A", KW, 1.0), ("B", KW, 0.9), ("A", REPLAY, 1.0), ("B", REPLAY, 1.1)]:
-            for i in range(5):
-                spec = TrialSpec(design={}, design_name="evertgym/UBend-v0",
-                                 scene={"family": "evertgym/UBend-v0", "params": params, "seed": SEED + i},
-                                 policy={"name": group}, seed=SEED + i, index=i, group=group)
-                store.add(spec, {"success": True, "time_s": 1.0, "peak_pressure_kpa": 1.0,
-                                 "max_contact_force_n": force + 0.001 * i * (group == "B"), "stall_position_mm": None})
+            _add(store, group, params, SEED, 5, force)
 
 
 def _run(*args: str) -> subprocess.CompletedProcess:
@@ -133,12 +138,7 @@ def test_validation_pairs_the_validation_episodes_only(tmp_path):
     with ResultStore(db) as store:
         for base, gap in [(SEED, 0.1), (2 * SEED, 0.3)]:
             for group, force in [("A", 1.0), ("B", 1.0 - gap)]:
-                for i in range(3):
-                    spec = TrialSpec(design={}, design_name="evertgym/UBend-v0",
-                                     scene={"family": "evertgym/UBend-v0", "params": KW, "seed": base + i},
-                                     policy={"name": group}, seed=base + i, index=i, group=group)
-                    store.add(spec, {"success": True, "time_s": 1.0, "peak_pressure_kpa": 1.0,
-                                     "max_contact_force_n": force + 0.001 * i * (group == "B"), "stall_position_mm": None})
+                _add(store, group, KW, base, 3, force)
     held = _run("--a", f"{db}:A", "--b", f"{db}:B", "--episodes", "3")
     val = _run("--a", f"{db}:A", "--b", f"{db}:B", "--episodes", "3", "--validation")
     assert held.returncode == 0 and val.returncode == 0, held.stderr + val.stderr
