@@ -820,9 +820,11 @@ def cmd_compare_runs(args: argparse.Namespace) -> int:
 
 def cmd_paired(args: argparse.Namespace) -> int:
     from evertgym.agents.stored import paired_difference, parse_env_kwargs
+    from evertgym.env.eversion_env import HELD_OUT_SEED_BASE, VALIDATION_SEED_BASE
 
     env_kwargs = parse_env_kwargs("--env-kwargs", args.env_kwargs, args.env)
-    print("\n".join(paired_difference(args.env, args.a, args.b, args.key, args.episodes, env_kwargs, args.validation)))
+    seed_base = VALIDATION_SEED_BASE if args.validation else HELD_OUT_SEED_BASE
+    print("\n".join(paired_difference(args.env, args.a, args.b, args.key, args.episodes, env_kwargs, seed_base)))
     return 0
 
 

@@ -46,8 +46,9 @@ def held_out_episodes(db: str | Path, env_id: str, episodes: int, env_kwargs: di
                       group: str | None = None, seed_base: int = HELD_OUT_SEED_BASE) -> dict[str, dict[int, dict]]:
     """Per policy label (only ``group`` if given): its first ``episodes`` held-out episodes of ``env_id`` played with
     exactly ``env_kwargs``, as {seed: trial result}; ``seed_base`` :data:`VALIDATION_SEED_BASE` reads the
-    validation episodes (``evertgym eval --validation``) instead.  A label whose episodes were played by two versions of the
-    policy (another engine, model file or tuned parameters) raises a one-line ValueError: they are not one policy."""
+    validation episodes (``evertgym eval --validation``) instead.  A label whose episodes were played by two
+    versions of the policy (another engine, model file or tuned parameters) raises a one-line ValueError: they are
+    not one policy."""
     seeds = list(range(seed_base, seed_base + episodes))
     where: dict = {"seed": seeds} if group is None else {"seed": seeds, "group": group}
     out: dict[str, dict[int, dict]] = {}
@@ -76,25 +77,24 @@ def policy_episodes(flag: str, spec: str, env_id: str, episodes: int, env_kwargs
 
 
 def paired_difference(env_id: str, first: str, second: str, key: str = "max_contact_force_n", episodes: int = 200,
-                      env_kwargs: dict | None = None, validation: bool = False) -> list[str]:
-    """Two policies on the same held-out episodes (the validation episodes with ``validation``), read from
-    evaluation stores (``STORE:POLICY`` each, as :func:`policy_episodes` takes them): over the episodes both have, the two means of the per-episode
-    figure ``key``, the mean difference (second minus first) with its normal 95% interval, the Wilcoxon
-    signed-rank p-value and in how many episodes the second is lower; then both successes with the exact
-    McNemar test on the discordant episodes.  Returns the printed lines; a one-line ``ValueError`` for
-    bad input or fewer than 2 shared episodes."""
+                      env_kwargs: dict | None = None, seed_base: int = HELD_OUT_SEED_BASE) -> list[str]:
+    """Two policies on the same held-out episodes (the validation episodes with ``seed_base``
+    :data:`VALIDATION_SEED_BASE`), read from evaluation stores (``STORE:POLICY`` each, as :func:`policy_episodes`
+    takes them): over the episodes both have, the two means of the per-episode figure ``key``, the mean difference
+    (second minus first) with its normal 95% interval, the Wilcoxon signed-rank p-value and in how many episodes the
+    second is lower; then both successes with the exact McNemar test on the discordant episodes.  Returns the printed
+    lines; a one-line ``ValueError`` for bad input or fewer than 2 shared episodes."""
     import math
 
     import numpy as np
     from scipy import stats
 
     kwargs = default_env_kwargs(env_id) if env_kwargs is None else env_kwargs
-    base = VALIDATION_SEED_BASE if validation else HELD_OUT_SEED_BASE
-    ra = policy_episodes("--a", first, env_id, episodes, kwargs, base)[2]
-    rb = policy_episodes("--b", second, env_id, episodes, kwargs, base)[2]
+    ra = policy_episodes("--a", first, env_id, episodes, kwargs, seed_base)[2]
+    rb = policy_episodes("--b", second, env_id, episodes, kwargs, seed_base)[2]
     seeds = sorted(set(ra) & set(rb))
     if len(seeds) < 2:
-        which = " (validation episodes)" if validation else ""
+        which = " (validation episodes)" if seed_base == VALIDATION_SEED_BASE else ""
         raise ValueError(f"only {len(seeds)} episodes in both stores for {env_id} with env kwargs {json.dumps(kwargs)}{which}")
     a = {s: float(ra[s][key]) for s in seeds}
     b = {s: float(rb[s][key]) for s in seeds}
