@@ -9,6 +9,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+from evertgym.env.eversion_env import HELD_OUT_SEED_BASE, VALIDATION_SEED_BASE
 from evertgym.scoring.spec import TrialSpec
 from evertgym.scoring.store import ResultStore
 
@@ -17,7 +18,7 @@ _ENV = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
 CLI = [sys.executable, "-m", "evertgym.cli", "paired"]
 KW = {"regulator_tau_s": [0.1, 0.6]}
 REPLAY = {**KW, "sim_config": {"solver_tolerance": 0.0001}}
-SEED = 1_000_000_000
+SEED = HELD_OUT_SEED_BASE
 
 
 def _add(store: ResultStore, group: str, params: dict, base: int, episodes: int, force: float) -> None:
@@ -136,7 +137,7 @@ def test_validation_pairs_the_validation_episodes_only(tmp_path):
     validation ones (B 0.3 N lower there, 0.1 N on held-out), the default the held-out ones."""
     db = tmp_path / "s.sqlite"
     with ResultStore(db) as store:
-        for base, gap in [(SEED, 0.1), (2 * SEED, 0.3)]:
+        for base, gap in [(SEED, 0.1), (VALIDATION_SEED_BASE, 0.3)]:
             for group, force in [("A", 1.0), ("B", 1.0 - gap)]:
                 _add(store, group, KW, base, 3, force)
     held = _run("--a", f"{db}:A", "--b", f"{db}:B", "--episodes", "3")
