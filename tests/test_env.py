@@ -9,7 +9,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
 from evertgym.env import EversionEnv, register_envs
 
-IDS = ["evertgym/UBend-v0", "evertgym/Tortuous-v0", "evertgym/Colon-v0", "evertgym/TortuousHard-v0"]
+IDS = ["evertgym/UBend-v0", "evertgym/Tortuous-v0", "evertgym/Colon-v0", "evertgym/TortuousHard-v0", "evertgym/Colon-v1"]
 
 
 def test_presets_are_registered_on_import():

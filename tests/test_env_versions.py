@@ -1,5 +1,6 @@
 """TortuousHard-v0, the harder tortuous variant, beside Tortuous-v0, which stays as it was; the harder
-variant's former id, evertgym/Tortuous-v1, is refused naming the new one."""
+variant's former id, evertgym/Tortuous-v1, is refused naming the new one.  Colon-v1, a new version of
+Colon-v0 with 3-5 flexures, beside Colon-v0, whose channels are unchanged."""
 
 import gymnasium as gym
 import numpy as np
@@ -69,3 +70,33 @@ def test_the_former_id_of_the_harder_variant_names_the_new_one():
     with pytest.raises(ValueError, match="renamed evertgym/TortuousHard-v0"):
         check_env_id("--env", "evertgym/Tortuous-v1")
 
+
+
+def test_colon_v1_adds_flexures_and_leaves_colon_v0_as_it_was():
+    v0, v1 = preset_kwargs("evertgym/Colon-v0"), preset_kwargs("evertgym/Colon-v1")
+    assert v0["scene"]["params"] == {} and "regulator_tau_s" not in v0 and v0["max_episode_s"] == 30.0
+    assert v1["scene"]["params"] == {"n_flexures": {"choice": [3, 4, 5]}}
+    assert v1["regulator_tau_s"] == (0.1, 0.6) and v1["max_episode_s"] == 40.0
+    assert gym.spec("evertgym/Colon-v1").max_episode_steps == 400
+    assert v1["design"]["tube"]["length_mm"] == 1600.0 and v0["design"]["tube"]["length_mm"] == 800.0
+    # the tube's diameter, the bands, their offset, the rewards, the observations and the clock are v0's
+    assert v1["design"]["bands"] == v0["design"]["bands"]
+    assert v1["design"]["tube"]["diameter_mm"] == v0["design"]["tube"]["diameter_mm"]
+    for key in ("band_offset_mm", "control_hz", "history",
+                "progress_weight", "pressure_weight", "contact_weight", "stall_weight", "success_weight"):
+        assert v1[key] == v0[key], key
+    assert v1["scene"]["family"] == v0["scene"]["family"] == "colon_random"
+    env = gym.make("evertgym/Colon-v1").unwrapped
+    drawn = set()
+    for seed in range(12):
+        env.reset(seed=seed)
+        drawn.add(env.scene.params["n_flexures"])
+        assert len(env.scene.bend_regions()) == env.scene.params["n_flexures"]
+        assert env.scene.goal_arclength < 1.6 - 0.1  # the robot reaches past the goal
+    assert drawn == {3, 4, 5}
+    # Colon-v0's channels are the ones it drew before flexures existed (goal and length of its first episodes)
+    v0_env = gym.make("evertgym/Colon-v0").unwrapped
+    for seed, goal, length in [(0, 0.5360314053622854, 0.6109176108118509), (1, 0.49949264400366006, 0.5995503279976779),
+                               (2, 0.5051518856556269, 0.5782582615105379)]:
+        v0_env.reset(seed=seed)
+        assert (v0_env.scene.goal_arclength, v0_env.scene.length) == pytest.approx((goal, length), rel=1e-12)

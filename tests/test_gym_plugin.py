@@ -1,5 +1,5 @@
-"""Gymnasium finds the environments without ``import evertgym``, and making any of them prints no
-Gymnasium warning.  Gymnasium 1.x reads no ``gymnasium.envs`` entry points; every wheel of this
+"""Gymnasium finds the environments without ``import evertgym``, and making any current one prints no
+Gymnasium warning (a superseded version gets Gymnasium's own out-of-date warning).  Gymnasium 1.x reads no ``gymnasium.envs`` entry points; every wheel of this
 project carries a start-up hook (``_backend/evertgym_gymnasium_hook.py`` and its ``.pth``) that
 registers the environments when Gymnasium is imported.  The slow wheel test in
 ``tests/test_package.py`` installs a real wheel and makes an env that way."""
@@ -14,6 +14,7 @@ import zipfile
 from pathlib import Path
 
 import gymnasium as gym
+import pytest
 
 import evertgym
 
@@ -46,8 +47,6 @@ def test_without_the_hook_gymnasium_1_does_not_find_them():
     (skipped where the installed evertgym already carries the hook)."""
     import importlib.util
 
-    import pytest
-
     if importlib.util.find_spec("evertgym_gymnasium_hook") is not None:
         pytest.skip("this environment's evertgym was installed with the hook")
     code = "import gymnasium as gym\ntry:\n    gym.make('evertgym/UBend-v0')\nexcept gym.error.NamespaceNotFound:\n    print('not found')\n"
@@ -56,10 +55,15 @@ def test_without_the_hook_gymnasium_1_does_not_find_them():
     assert done.stdout.strip() == "not found", done.stderr[-2000:]
 
 
-def test_making_every_registered_id_prints_no_gymnasium_warning():
+def test_making_every_current_id_prints_no_gymnasium_warning_and_a_superseded_one_names_its_successor():
     ids = evertgym.register_envs()
-    assert len(ids) >= 4
+    assert len(ids) >= 5
+    superseded = {"evertgym/Colon-v0": "v1"}  # Gymnasium's convention: a newer version of the name is registered
     for env_id in ids:
+        if env_id in superseded:
+            with pytest.warns(DeprecationWarning, match=f"{env_id} is out of date.*version `{superseded[env_id]}`"):
+                gym.make(env_id).close()
+            continue
         with warnings.catch_warnings():
             warnings.simplefilter("error")
             gym.make(env_id).close()

@@ -232,6 +232,39 @@ def test_colon_defaults_are_the_paper_phantom():
     assert scene.derived["wall_stiffness_n_per_m_per_mm"] == pytest.approx(0.542 + 1.0, abs=0.01)
 
 
+def test_colon_flexures_repeat_the_bend_turning_alternately():
+    one = make_scene({"family": "colon", "params": {}})
+    scene = make_scene({"family": "colon", "params": {"n_flexures": 3, "flexure_gap_mm": 60, "length_mm": 900}})
+    bend = (one.arclength >= 0.36) & (one.curvature > 1 / 0.2)
+    bend_m = one.arclength[bend][-1] - 0.36
+    regions = scene.bend_regions()
+    assert len(regions) == 3 and len(one.bend_regions()) == 1
+    starts = [a for a, _ in regions]
+    assert np.allclose(np.diff(starts), bend_m + 0.06, atol=1.01 * MM)  # each a copy of the bend, 60 mm of straight apart
+    s, h = scene.arclength, scene.heading
+    between = [0.35] + [0.36 + k * (bend_m + 0.06) + bend_m + 0.03 for k in range(3)]  # on the straights around them
+    heading = [h[np.searchsorted(s, x)] for x in between]
+    assert np.diff(heading) == pytest.approx([math.pi / 2, -math.pi / 2, math.pi / 2], abs=1e-6)  # left, right, left
+    assert scene.goal_arclength == pytest.approx(0.36 + 3 * bend_m + 2 * 0.06 + 0.05, abs=1.01 * MM)
+    assert not scene.self_intersecting()
+    with pytest.raises(ValueError, match=r"length_mm = 600 is out of range: must be >= bend_at_mm \+ the flexures' length"):
+        make_scene({"family": "colon", "params": {"n_flexures": 3, "length_mm": 600}})
+    with pytest.raises(ValueError, match=r"n_flexures = 0 is out of range: allowed \[1, 8\]"):
+        make_scene({"family": "colon", "params": {"n_flexures": 0}})
+
+
+def test_random_colons_with_flexures_fit_their_length_and_leave_one_flexure_unchanged():
+    for seed in range(100):
+        c = make_scene({"family": "colon_random", "params": {"n_flexures": 4}, "seed": seed})
+        assert len(c.bend_regions()) == 4 and c.passable(20 * MM) and not c.self_intersecting(), seed
+        assert 40 <= c.params["flexure_gap_mm"] <= 120 and c.length >= c.goal_arclength
+    # pinning the number of flexures leaves every other draw of the seed as it was
+    one = make_scene({"family": "colon_random", "params": {}, "seed": 7})
+    three = make_scene({"family": "colon_random", "params": {"n_flexures": 3}, "seed": 7})
+    same = [k for k in one.params if k not in ("length_mm", "n_flexures", "flexure_gap_mm")]
+    assert {k: one.params[k] for k in same} == {k: three.params[k] for k in same}
+
+
 def test_project_lumen_and_inside():
     scene = make_scene({"family": "ubend", "params": {"radius_mm": 30}})
     s_true = np.array([0.1, 0.35, 0.5])

@@ -19,7 +19,10 @@ Layout of the channel, from the entry (arc length 0, the funnel's mouth):
 3. the bend: ``bend_angle_deg`` towards ``turn``, a clothoid whose inner-wall radius (of the
    mean lumen) goes from ``bend_radius_start_mm`` to ``bend_radius_end_mm`` (curvature linear
    in arc length; the paper gives only the 20-80 mm range, the order is our choice);
-4. a straight exit up to ``length_mm``; the goal is ``goal_after_bend_mm`` past the bend.
+   with ``n_flexures`` > 1 (the phantom has one), ``n_flexures - 1`` copies of that bend follow,
+   each ``flexure_gap_mm`` of straight after the one before and turning the other way, so the
+   heading swings back and forth as along a colon's flexures and the channel never crosses itself;
+4. a straight exit up to ``length_mm``; the goal is ``goal_after_bend_mm`` past the last flexure.
 
 Haustral folds: both walls move inwards by ``fold_depth_mm * f(s)``, symmetric so the
 centreline stays central, with ``f = ((1 + cos(2 pi (s - s1) / spacing)) / 2)^3`` (narrow
@@ -43,7 +46,9 @@ not given, uniformly from these ranges (mm and degrees), so a given value pins t
   before the bend), ``bend_at_mm`` 280-400, ``bend_angle_deg`` 60-120, ``bend_radius_start_mm``
   50-100, ``bend_radius_end_mm`` 15-35 (the phantom's 20-80 mm; the sigmoid can be tighter,
   Alqarni et al. 2024), ``turn`` left/right, and the exit 80-160 mm past the bend (giving
-  ``length_mm``; Khashab et al. report about 11 acute-angle flexures along a 1.9 m colon);
+  ``length_mm``; Khashab et al. report about 11 acute-angle flexures along a 1.9 m colon, one
+  per ~170 mm, so ``flexure_gap_mm`` is drawn 40-120 mm: with the flexures' own length, 2-4
+  of them take 250-900 mm, as along the sigmoid and descending colon);
 * ``wall_modulus_kpa`` 70-110 (Ecoflex 00-50: 100 % modulus 12 psi = 83 kPa, Smooth-On;
   80-100 kPa is the usual quoted range, widened for cure variation) and
   ``mesocolon_n_per_m_per_mm`` 0.5-2 (the suspension's stiffness is not reported).
@@ -87,7 +92,9 @@ PARAMS: dict[str, Param] = {
     "turn": Param("left", kind="choice", choices=("left", "right"), doc="direction of the bend"),
     "fold_spacing_mm": Param(30.0, lo=5.0, hi=300.0, unit="mm", doc="distance between haustral folds"),
     "fold_depth_mm": Param(2.0, lo=0.0, hi=30.0, unit="mm", doc="inward height of each fold on each wall"),
-    "goal_after_bend_mm": Param(50.0, lo=0.0, hi=3000.0, unit="mm", doc="goal distance past the bend"),
+    "goal_after_bend_mm": Param(50.0, lo=0.0, hi=3000.0, unit="mm", doc="goal distance past the (last) flexure"),
+    "n_flexures": Param(1, kind="int", lo=1, hi=8, doc="number of flexures: the bend, then copies turning alternately"),
+    "flexure_gap_mm": Param(80.0, lo=0.0, hi=3000.0, unit="mm", doc="straight between consecutive flexures"),
     "compliant": Param(True, kind="bool", doc="compliant walls (False: every wall static)"),
     "wall_thickness_mm": Param(3.0, lo=0.5, hi=20.0, unit="mm", doc="wall thickness"),
     "wall_modulus_kpa": Param(83.0, lo=1.0, hi=10000.0, unit="kPa", doc="Young's modulus of the wall (Ecoflex 00-50)"),
@@ -102,19 +109,24 @@ PARAMS: dict[str, Param] = {
 
 
 def _layout(p: Mapping[str, Any]) -> tuple[list[Piece], float, float]:
-    """Centreline pieces, the sigmoid's length and the bend's length (m)."""
+    """Centreline pieces, the sigmoid's length and the flexures' length from the first's start (m)."""
     w = p["lumen_mm"] * MM
     sign = 1.0 if p["turn"] == "left" else -1.0
     s_ang = p["sigmoid_angle_deg"] * DEG
     s1 = arc(p["sigmoid_radius_mm"] * MM, 0.5 * w, -sign * s_ang)
     s2 = arc(p["sigmoid_radius_mm"] * MM, 0.5 * w, sign * s_ang)
-    bend = clothoid_bend(p["bend_radius_start_mm"] * MM, p["bend_radius_end_mm"] * MM, 0.5 * w,
-                         sign * p["bend_angle_deg"] * DEG)
+    flexures: list[Piece] = []
+    for i in range(int(p["n_flexures"])):
+        if i:
+            flexures.append(Piece(p["flexure_gap_mm"] * MM))
+        flexures.append(clothoid_bend(p["bend_radius_start_mm"] * MM, p["bend_radius_end_mm"] * MM, 0.5 * w,
+                                      (-1.0) ** i * sign * p["bend_angle_deg"] * DEG))
+    bends = sum(piece.length for piece in flexures)
     funnel = p["funnel_length_mm"] * MM
     room = p["bend_at_mm"] * MM - funnel - s1.length - s2.length
-    exit_ = p["length_mm"] * MM - p["bend_at_mm"] * MM - bend.length
-    pieces = [Piece(funnel), Piece(0.5 * room), s1, s2, Piece(0.5 * room), bend, Piece(exit_)]
-    return pieces, s1.length + s2.length, bend.length
+    exit_ = p["length_mm"] * MM - p["bend_at_mm"] * MM - bends
+    pieces = [Piece(funnel), Piece(0.5 * room), s1, s2, Piece(0.5 * room), *flexures, Piece(exit_)]
+    return pieces, s1.length + s2.length, bends
 
 
 def _check(p: Mapping[str, Any]) -> None:
@@ -150,7 +162,7 @@ def _check(p: Mapping[str, Any]) -> None:
     need = p["bend_at_mm"] + b_len / MM + p["goal_after_bend_mm"]
     if p["length_mm"] < need:
         raise SceneError(
-            f"length_mm = {p['length_mm']:g} is out of range: must be >= bend_at_mm + the bend's length "
+            f"length_mm = {p['length_mm']:g} is out of range: must be >= bend_at_mm + the flexures' length "
             f"+ goal_after_bend_mm = {need:g} mm"
         )
 
@@ -185,8 +197,12 @@ def _draw(given: Mapping[str, Any], rng: np.random.Generator, variant_default: b
     pick("turn", "left" if u[9] < 0.5 else "right")
     pick("wall_modulus_kpa", span(70.0, 110.0, u[10]))
     pick("mesocolon_n_per_m_per_mm", span(0.5, 2.0, u[11]))
+    n = int(given.get("n_flexures", PARAMS["n_flexures"].default))
+    gap = span(40.0, 120.0, u[13])
+    if n > 1:
+        gap = pick("flexure_gap_mm", gap)
     bend_len = clothoid_bend(r0 * MM, r1 * MM, 0.5 * lumen * MM, angle * DEG).length / MM
-    pick("length_mm", bend_at + bend_len + span(80.0, 160.0, u[12]))
+    pick("length_mm", bend_at + n * bend_len + (n - 1) * gap + span(80.0, 160.0, u[12]))
     return out
 
 
