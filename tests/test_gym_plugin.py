@@ -1,8 +1,9 @@
-"""Gymnasium finds the environments without ``import evertgym``, and making any current one prints no
-Gymnasium warning (a superseded version gets Gymnasium's own out-of-date warning).  Gymnasium 1.x reads no ``gymnasium.envs`` entry points; every wheel of this
-project carries a start-up hook (``_backend/evertgym_gymnasium_hook.py`` and its ``.pth``) that
-registers the environments when Gymnasium is imported.  The slow wheel test in
-``tests/test_package.py`` installs a real wheel and makes an env that way."""
+"""Gymnasium finds the environments without ``import evertgym``, and making any current one prints
+no Gymnasium warning (a superseded version gets Gymnasium's own out-of-date warning).  Gymnasium 1.x
+reads no ``gymnasium.envs`` entry points; every wheel of this project carries a start-up hook
+(``_backend/evertgym_gymnasium_hook.py`` and its ``.pth``) that registers the environments when
+Gymnasium is imported.  The slow wheel test in ``tests/test_package.py`` installs a real wheel and
+makes an env that way."""
 
 from __future__ import annotations
 
