@@ -47,8 +47,8 @@ not given, uniformly from these ranges (mm and degrees), so a given value pins t
   50-100, ``bend_radius_end_mm`` 15-35 (the phantom's 20-80 mm; the sigmoid can be tighter,
   Alqarni et al. 2024), ``turn`` left/right, and the exit 80-160 mm past the bend (giving
   ``length_mm``; Khashab et al. report about 11 acute-angle flexures along a 1.9 m colon, one
-  per ~170 mm, so ``flexure_gap_mm`` is drawn 40-120 mm: with the flexures' own length, 2-4
-  of them take 250-900 mm, as along the sigmoid and descending colon);
+  per ~170 mm, so ``flexure_gap_mm`` is drawn 40-120 mm: with the flexures' own length, the
+  3-5 of Colon-v1 span 0.26-1.08 m, as along the sigmoid and descending colon);
 * ``wall_modulus_kpa`` 70-110 (Ecoflex 00-50: 100 % modulus 12 psi = 83 kPa, Smooth-On;
   80-100 kPa is the usual quoted range, widened for cure variation) and
   ``mesocolon_n_per_m_per_mm`` 0.5-2 (the suspension's stiffness is not reported).
